@@ -1,0 +1,118 @@
+"""Which effects a simulation includes: typed, frozen options (not dicts of flags).
+
+An effect switched off changes which terms the engine builds, never a multiplier inside
+them: e.g. ``friction="off"`` means no friction forces, no sliding-velocity events and no
+stick bookkeeping at all.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+FrictionLaw = Literal["off", "nominal", "regularized", "stick_slip"]
+StiffnessKind = Literal["potential_energy", "constant", "rectangular", "table"]
+Sliding = Literal["paper", "full"]
+StickTie = Literal["exact", "paper"]
+
+_FRICTION = ("off", "nominal", "regularized", "stick_slip")
+_STIFFNESS = ("potential_energy", "constant", "rectangular", "table")
+_SLIDING = ("paper", "full")
+_TIE = ("exact", "paper")
+
+
+def _one_of(name: str, value: str, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise ValueError(f"{name} = {value!r} is not allowed; choose one of {', '.join(allowed)}")
+
+
+@dataclass(frozen=True)
+class StiffnessSpec:
+    """Mesh stiffness law per tooth pair against contact position.
+
+    Attributes
+    ----------
+    kind : {"potential_energy", "constant", "rectangular", "table"}
+        ``potential_energy``: Hertz + bending + shear + axial compression + fillet foundation
+        (Sainsot et al. 2004) of both teeth, scaled to the mean. ``constant``: the total mesh
+        stiffness is ``km_mean`` at all times (shared between the pairs in contact).
+        ``rectangular``: each pair has the same constant stiffness, so the total steps between
+        single and double contact with time mean ``km_mean``. ``table``: per-pair stiffness
+        from ``table`` (positions along the path of contact from its start A, m; stiffness
+        N/m), linearly interpolated and scaled to the mean unless ``scale_to_mean`` is False.
+    table : tuple of (position_m, stiffness_n_per_m) pairs, optional
+    scale_to_mean : bool
+        Scale the law so that the time mean of the total mesh stiffness is ``km_mean``.
+    """
+
+    kind: StiffnessKind = "potential_energy"
+    table: tuple[tuple[float, float], ...] | None = None
+    scale_to_mean: bool = True
+
+    def __post_init__(self) -> None:
+        _one_of("stiffness", self.kind, _STIFFNESS)
+        if self.kind == "table":
+            if not self.table or len(self.table) < 2:
+                raise ValueError(
+                    "stiffness table needs at least 2 rows (position m, stiffness N/m)")
+            pos = [float(r[0]) for r in self.table]
+            k = [float(r[1]) for r in self.table]
+            if any(not math.isfinite(v) for v in pos + k):
+                raise ValueError("stiffness table has a non-finite value")
+            if any(b <= a for a, b in zip(pos, pos[1:], strict=False)):
+                raise ValueError("stiffness table positions must increase strictly")
+            if any(v < 0 for v in k):
+                raise ValueError("stiffness table values must be >= 0 N/m")
+
+
+@dataclass(frozen=True)
+class Effects:
+    """The effects a scene calls for.
+
+    Attributes
+    ----------
+    stiffness : StiffnessSpec
+        Mesh stiffness law (Fig. 4; MODEL.md "Choices").
+    separation : bool
+        Tooth separation, Eq. (8): mesh force and mesh damping vanish for delta < 0. When
+        False the mesh spring also pulls (a linear model).
+    friction : {"off", "nominal", "regularized", "stick_slip"}
+        ``nominal``: Coulomb friction with its direction from the nominal kinematics (reverses
+        exactly at the pitch point; the traditional slip model). ``regularized``:
+        ``tanh(v / v_eps)``. ``stick_slip``: sign law with exact switching by Eq. (14).
+    v_eps : float
+        Regularization velocity of the ``regularized`` law (m/s).
+    sliding : {"paper", "full"}
+        Relative sliding velocity: Eq. (12) (translations only) or with the rotational
+        vibration too (``Omega_i + u_i'/rb_i``), which keeps the energy balance exact.
+    stick_tie : {"exact", "paper"}
+        How the stuck surfaces move together: ``exact`` holds v_j = 0 (includes the rate of
+        change of the nominal sliding velocity); ``paper`` is Eqs. (19)-(21) (x2'' = x1'').
+    """
+
+    stiffness: StiffnessSpec = field(default_factory=StiffnessSpec)
+    separation: bool = True
+    friction: FrictionLaw = "stick_slip"
+    v_eps: float = 1e-4
+    sliding: Sliding = "paper"
+    stick_tie: StickTie = "exact"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.stiffness, str):  # convenience: Effects(stiffness="constant")
+            object.__setattr__(self, "stiffness", StiffnessSpec(kind=self.stiffness))
+        if not isinstance(self.stiffness, StiffnessSpec):
+            raise ValueError("stiffness must be a StiffnessSpec or one of " + ", ".join(_STIFFNESS))
+        _one_of("friction", self.friction, _FRICTION)
+        _one_of("sliding", self.sliding, _SLIDING)
+        _one_of("stick_tie", self.stick_tie, _TIE)
+        if not (isinstance(self.separation, bool)):
+            raise ValueError(f"separation must be true or false, got {self.separation!r}")
+        if not (math.isfinite(self.v_eps) and 1e-9 <= self.v_eps <= 1.0):
+            raise ValueError(f"v_eps = {self.v_eps!r} is out of range; allowed [1e-09, 1] m/s")
+
+
+FRICTION_LAWS = _FRICTION
+STIFFNESS_KINDS = _STIFFNESS
+SLIDING_VARIANTS = _SLIDING
+STICK_TIES = _TIE

@@ -1,0 +1,119 @@
+"""The engine contract shared by every integrator, the FMU, the CLI and the sweeps.
+
+An engine owns one gear pair's continuous state (q, q', mesh travel) and discrete state
+(which pairs stick, the slip direction of each pair, separated or not). It is driven by
+``advance(t_end, torque, speed)``, which integrates to ``t_end`` exactly with the inputs held
+over the step (zero-order hold, as an FMI 2.0 co-simulation master gives them), locating every
+state switch inside the step. Front doors (FMU, CLI, harness) never care which engine runs.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+
+CONTACT_SEPARATED = 0
+CONTACT_SLIP = 1
+CONTACT_STICK = 2
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """Instantaneous outputs at the engine's current time (SI).
+
+    Attributes
+    ----------
+    time : s
+    dte : m, mesh deflection delta = g . q along the line of action (Eq. (3))
+    mesh_force : N, elastic mesh force km Theta(delta) delta (Eq. (16))
+    friction_force : N, total tangential tooth force (sliding or static), sum over pairs
+    contact_state : 0 separated, 1 slip, 2 stick (any pair stuck)
+    output_torque : N.m, torque delivered to the gear 2 shaft, -rb2 (kr2 u2 + cr2 u2')
+    input_torque_reaction : N.m, torque the mesh exerts back on gear 1 about its axis
+    gear1_speed, gear2_speed : rad/s, absolute shaft speeds (nominal + vibration)
+    sliding_velocity : m/s, relative sliding velocity of the pair nearest the pitch point
+    """
+
+    time: float
+    dte: float
+    mesh_force: float
+    friction_force: float
+    contact_state: int
+    output_torque: float
+    input_torque_reaction: float
+    gear1_speed: float
+    gear2_speed: float
+    sliding_velocity: float
+
+
+@dataclass(frozen=True)
+class StepSummary:
+    """Figures over the last ``advance`` call that stay meaningful at coarse steps.
+
+    Attributes
+    ----------
+    t_start, t_end : s
+    stick_fraction, separation_fraction : fraction (0..1) of the step spent in stick / apart,
+        from the located switching instants (exact, not sampled)
+    mesh_force_max : N, peak elastic mesh force in the step (over the solver's steps and
+        dense-output samples)
+    n_events : number of state switches located in the step
+    n_steps : number of internal integrator steps
+    """
+
+    t_start: float
+    t_end: float
+    stick_fraction: float
+    separation_fraction: float
+    mesh_force_max: float
+    n_events: int
+    n_steps: int
+
+
+class Engine(ABC):
+    """Abstract engine. Concrete engines: `gearpair.reference.ReferenceEngine`."""
+
+    @abstractmethod
+    def reset(self, t0: float = 0.0, torque: float = 0.0, speed: float = 0.0,
+              static: bool = True) -> None:
+        """Start at ``t0``; with ``static`` the deflections start at static equilibrium
+        under ``torque`` (so a run has no start-up transient from zero)."""
+
+    @abstractmethod
+    def advance(self, t_end: float, torque: float, speed: float) -> StepSummary:
+        """Integrate to exactly ``t_end`` with torque (N.m) and speed (rad/s) held."""
+
+    @abstractmethod
+    def outputs(self) -> Outputs:
+        """Outputs at the current time."""
+
+    @abstractmethod
+    def get_state(self) -> dict:
+        """Everything the next step depends on, as plain Python/numpy values (picklable)."""
+
+    @abstractmethod
+    def set_state(self, state: dict) -> None:
+        """Restore a state from `get_state` (of an engine built with the same data)."""
+
+    @property
+    @abstractmethod
+    def time(self) -> float:
+        """Current time (s)."""
+
+
+def check_inputs(torque: float, speed: float) -> None:
+    """Raise ``ValueError`` naming the input unless torque and speed are finite and in range."""
+    for name, v, lim, unit in (("torque", torque, 1e6, "N.m"), ("speed", speed, 2e4, "rad/s")):
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be a number, got {v!r}") from None
+        if not math.isfinite(x) or abs(x) > lim:
+            raise ValueError(f"{name} = {v!r} is out of range; allowed [-{lim:g}, {lim:g}] {unit}")
+
+
+def as_array(x) -> np.ndarray:
+    return np.asarray(x, dtype=float)

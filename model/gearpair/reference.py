@@ -1,0 +1,355 @@
+"""The reference engine: scipy's ODE solvers, written to be checked against the paper.
+
+How a step is taken: a scipy `OdeSolver` (DOP853 by default; RK45, Radau, LSODA selectable)
+integrates the equations of one contact state (`equations.evaluate`). When the state changes:
+
+- *known* discontinuities, where a tooth pair enters or leaves the path of contact (and the
+  pitch point for the nominal friction law), are segment boundaries computed from the mesh
+  travel, never events to hunt;
+- *unknown* switches (`switching`) are located on the solver's dense output. scipy's own event
+  handling compares signs only at step ends and silently loses a crossing that begins and
+  ends inside one step (MODEL.md, "Two traps"); here every accepted step is also sampled at
+  ``n_samples`` interior points and the first fall through zero is refined with Brent's
+  method, and the step is bounded by ``max_step``.
+
+This is the yardstick the FMU and the fast engine are verified against, not the fast path.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import DOP853, LSODA, RK23, RK45, Radau
+from scipy.optimize import brentq
+
+from .effects import Effects
+from .engine import (
+    CONTACT_SEPARATED,
+    CONTACT_SLIP,
+    CONTACT_STICK,
+    Engine,
+    Outputs,
+    StepSummary,
+    check_inputs,
+)
+from .equations import U1, U2, G, Model, evaluate
+from .params import GearParams
+from .switching import Mode, event_labels, event_values, settle_directions, switch
+
+METHODS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "LSODA": LSODA}
+N_Q = 6
+N_E = 4  # energy quadratures: input work, damping loss, friction work, parametric work
+# Typical magnitudes, for absolute tolerances: deflections ~10 um, velocities ~1 mm/s... 1 m/s
+_SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(N_E, 1.0)]
+
+
+class ReferenceEngine(Engine):
+    """scipy-based engine implementing the `Engine` contract.
+
+    Parameters
+    ----------
+    params, effects : the gear pair and the effects to include
+    rtol : relative tolerance of the ODE solver
+    atol : absolute tolerance; default ``rtol`` times typical magnitudes of each state
+    method : scipy solver name (RK45, DOP853, Radau, LSODA, RK23)
+    max_step : largest solver step (s); default a tenth of the shortest natural period, so
+        that no switch can hide inside a step between two dense samples
+    n_samples : interior dense-output samples per step scanned for sign changes
+    max_events : bound on switches per `advance` call; more raises RuntimeError (a stall)
+    """
+
+    def __init__(self, params: GearParams | None = None, effects: Effects | None = None,
+                 rtol: float = 1e-8, atol: float | None = None, method: str = "DOP853",
+                 max_step: float | None = None, n_samples: int = 8,
+                 max_events: int = 100_000) -> None:
+        if method not in METHODS:
+            raise ValueError(f"method = {method!r}; choose one of {', '.join(METHODS)}")
+        if not (1e-14 <= rtol <= 1e-2):
+            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        self.model = Model.build(params, effects)
+        self.rtol = rtol
+        self.atol = _SCALE * (rtol if atol is None else atol / rtol * rtol)
+        if atol is not None:
+            self.atol = np.full(2 * N_Q + N_E, atol)
+        self.method = method
+        if max_step is None:
+            from .modal import natural_frequencies
+
+            fmax = natural_frequencies(self.model, "slip")[-1]
+            max_step = 0.5 / fmax
+        self.max_step = max_step
+        self.n_samples = n_samples
+        self.max_events = max_events
+        self._h = None
+        self.reset()
+
+    # -- contract ----------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return self.t
+
+    def reset(self, t0: float = 0.0, torque: float = 0.0, speed: float = 0.0,
+              static: bool = True) -> None:
+        check_inputs(torque, speed)
+        m = self.model
+        n = m.geom.n_pairs
+        self.t = float(t0)
+        self.s = 0.0  # mesh travel (m): pair 0 enters contact at t0
+        self.torque, self.speed = float(torque), float(speed)
+        self.y = np.zeros(2 * N_Q + N_E)
+        active, _, _, _, k = m.contact(self.s)
+        if static and torque != 0.0:
+            self.y[:N_Q] = m.static_deflection(torque, float(k.sum()))
+        sep = m.effects.separation and float(G @ self.y[:N_Q]) < 0.0
+        self.mode = Mode(sep, np.ones(n), np.zeros(n, dtype=bool))
+        self.mode, qd = settle_directions(m, self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
+                                          self.torque, self.speed, active, self.mode)
+        self.t_stick = 0.0
+        self.t_sep = 0.0
+        self.n_events_total = 0
+        self._last = None
+
+    def get_state(self) -> dict:
+        return {
+            "t": self.t, "s": self.s, "y": self.y.copy(), "torque": self.torque,
+            "speed": self.speed, "separated": self.mode.separated,
+            "dirs": self.mode.dirs.copy(), "stuck": self.mode.stuck.copy(),
+            "t_stick": self.t_stick, "t_sep": self.t_sep, "n_events_total": self.n_events_total,
+            "h": self._h, "last": self._last,
+        }
+
+    def set_state(self, state: dict) -> None:
+        self.t, self.s = float(state["t"]), float(state["s"])
+        self.y = np.array(state["y"], dtype=float)
+        self.torque, self.speed = float(state["torque"]), float(state["speed"])
+        self.mode = Mode(bool(state["separated"]), np.array(state["dirs"], dtype=float),
+                         np.array(state["stuck"], dtype=bool))
+        self.t_stick, self.t_sep = float(state["t_stick"]), float(state["t_sep"])
+        self.n_events_total = int(state["n_events_total"])
+        self._h = state["h"]
+        self._last = state["last"]
+
+    # -- integration -------------------------------------------------------------------------
+    def _travel(self, t: float) -> float:
+        return self.s + self.model.p.rb1 * self.speed * (t - self.t)
+
+    def _rhs(self, active, mode: Mode, t0: float, s0: float):
+        m, torque, speed = self.model, self.torque, self.speed
+        dirs, stuck = mode.dirs[active], mode.stuck[active]
+        rb1 = m.rb1
+        cm = m.cm
+        c_diag = m.c_diag
+
+        varying = m.stiff.kind not in ("constant", "rectangular")
+
+        def fun(t, y):
+            q, qd = y[:N_Q], y[N_Q:2 * N_Q]
+            s = s0 + rb1 * speed * (t - t0)
+            ev = evaluate(m, s, q, qd, torque, speed, active, mode.separated, dirs, stuck)
+            dkm = float(m.stiff.slope(ev.xi, len(active)).sum()) * rb1 * speed \
+                if varying else 0.0
+            out = np.empty_like(y)
+            out[:N_Q] = qd
+            out[N_Q:2 * N_Q] = ev.qdd
+            out[12] = torque / rb1 * qd[U1]
+            out[13] = c_diag @ (qd * qd) + ev.theta * cm * ev.ddelta**2
+            out[14] = float(ev.friction @ (ev.w @ qd))
+            out[15] = 0.5 * ev.theta * dkm * ev.delta**2
+            return out
+
+        return fun
+
+    def _eval_at(self, t, y, active, mode, t0, s0):
+        m = self.model
+        s = s0 + m.p.rb1 * self.speed * (t - t0)
+        return evaluate(m, s, y[:N_Q], y[N_Q:2 * N_Q], self.torque, self.speed, active,
+                        mode.separated, mode.dirs[active], mode.stuck[active])
+
+    def advance(self, t_end: float, torque: float, speed: float) -> StepSummary:
+        check_inputs(torque, speed)
+        t_start = self.t
+        if not (t_end > t_start):
+            raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
+        m = self.model
+        self.torque, self.speed = float(torque), float(speed)
+        rb1 = m.p.rb1
+        extra = (m.geom.xi_pitch,) if m.effects.friction == "nominal" else ()
+        s_end = self._travel(t_end)
+        bounds_s = m.geom.boundaries(self.s, s_end, extra) if speed != 0.0 else np.zeros(0)
+        t_bounds = [self.t + (b - self.s) / (rb1 * speed) for b in bounds_s] + [t_end]
+        stick0, sep0 = self.t_stick, self.t_sep
+        fmax = -math.inf
+        n_ev = 0
+        n_steps = 0
+        for tb in t_bounds:
+            tb = min(max(tb, self.t), t_end)
+            s_mid = self._travel(0.5 * (self.t + tb))
+            active, _, _, _, _ = m.contact(s_mid)
+            # A pair entering contact takes its slip direction from its sliding velocity.
+            self.mode, qd = settle_directions(m, self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
+                                              torque, speed, active, self._entering(active))
+            km_before = self._km_now(self._prev_active) if self._prev_active is not None \
+                else None
+            if km_before is not None:
+                # Stored mesh energy jumps when a pair enters or leaves: book it as parametric.
+                ev = self._eval_at(self.t, self.y, active, self.mode, self.t, self.s)
+                self.y[15] += 0.5 * ev.theta * (ev.km - km_before) * ev.delta**2
+            while self.t < tb:
+                n_ev_seg, n_st, fm = self._integrate_segment(tb, active)
+                n_ev += n_ev_seg
+                n_steps += n_st
+                fmax = max(fmax, fm)
+                if n_ev > self.max_events:
+                    raise RuntimeError(
+                        f"more than {self.max_events} contact switches in one step "
+                        f"(t = {self.t:.9g} s): the run stalls; see README 'Limits'")
+            self._prev_active = active
+        self.t = float(t_end)
+        self.n_events_total += n_ev
+        h = t_end - t_start
+        out = self.outputs()
+        fmax = max(fmax, out.mesh_force)
+        self._last = (t_start, t_end)
+        return StepSummary(t_start, t_end, (self.t_stick - stick0) / h,
+                           (self.t_sep - sep0) / h, fmax, n_ev, n_steps)
+
+    _prev_active = None
+
+    def _km_now(self, active):
+        m = self.model
+        _, _, _, _, k = m.contact(self.s, active)
+        return float(k.sum())
+
+    def _entering(self, active) -> Mode:
+        mode = self.mode.copy()
+        prev = self._prev_active
+        if prev is not None:
+            for j in range(len(mode.stuck)):
+                if j not in active:
+                    mode.stuck[j] = False
+        return mode
+
+    def _integrate_segment(self, tb: float, active) -> tuple[int, int, float]:
+        """Integrate in one contact state from self.t towards tb; stop at the first switch.
+
+        Returns (number of switches, solver steps, peak mesh force)."""
+        m = self.model
+        mode = self.mode
+        t0, s0 = self.t, self.s
+        fun = self._rhs(active, mode, t0, s0)
+        labels = event_labels(m, mode, active)
+        solver_cls = METHODS[self.method]
+        kw = {"rtol": self.rtol, "atol": self.atol, "max_step": self.max_step}
+        if self._h is not None:
+            kw["first_step"] = min(self._h, tb - t0)
+        solver = solver_cls(fun, t0, self.y, tb, **kw)
+        fmax = -math.inf
+
+        def values(t, y):
+            ev = self._eval_at(t, y, active, mode, t0, s0)
+            return event_values(m, ev, mode, active), ev
+
+        g_prev, ev0 = values(t0, self.y)
+        n_steps = 0
+        while True:
+            msg = solver.step()
+            if solver.status == "failed":
+                raise ArithmeticError(f"{self.method} failed at t = {solver.t:.9g} s: {msg}")
+            n_steps += 1
+            ta, tc = solver.t_old, solver.t
+            self._h = solver.step_size if solver.step_size else self._h
+            sol = solver.dense_output()
+            ts = np.linspace(ta, tc, self.n_samples + 2)[1:]
+            hit = None
+            t_prev = ta
+            for tk in ts:
+                yk = sol(tk)
+                gk, evk = values(tk, yk)
+                fmax = max(fmax, evk.theta * evk.km * evk.delta)
+                if len(gk):
+                    falls = np.flatnonzero((g_prev > 0.0) & (gk <= 0.0))
+                    if falls.size:
+                        hit = (t_prev, tk, falls)
+                        break
+                g_prev, t_prev = gk, tk
+            if hit is not None:
+                t_lo, tk, falls = hit
+                # Refine the earliest of the falling functions.
+                best_t, best_i = tk, int(falls[0])
+                for i in falls:
+                    def gi(t, i=i, sol=sol):
+                        return values(t, sol(t))[0][i]
+                    if gi(t_lo) <= 0.0:
+                        te = t_lo
+                    else:
+                        te = brentq(gi, t_lo, tk, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+                    if te < best_t:
+                        best_t, best_i = te, int(i)
+                te = best_t
+                ye = sol(te)
+                self._book(t0, te, mode)
+                self.y = ye
+                self.s = s0 + m.p.rb1 * self.speed * (te - t0)
+                self.t = te
+                qd = ye[N_Q:2 * N_Q]
+                self.mode, qd = switch(m, labels[best_i], self.s, ye[:N_Q], qd, self.torque,
+                                       self.speed, active, mode)
+                self.y = ye.copy()
+                self.y[N_Q:2 * N_Q] = qd
+                return 1, n_steps, fmax
+            if solver.status == "finished" or tc >= tb:
+                self._book(t0, tb, mode)
+                self.y = solver.y.copy()
+                self.s = s0 + m.p.rb1 * self.speed * (tb - t0)
+                self.t = tb
+                return 0, n_steps, fmax
+
+    def _book(self, ta, tb, mode: Mode):
+        if mode.separated:
+            self.t_sep += tb - ta
+        elif mode.stuck.any():
+            self.t_stick += tb - ta
+
+    # -- outputs -----------------------------------------------------------------------------
+    def evaluate_now(self):
+        """`equations.Eval` at the current time and state."""
+        active, _, _, _, _ = self.model.contact(self.s, self._prev_active)
+        return self._eval_at(self.t, self.y, active, self.mode, self.t, self.s), active
+
+    def outputs(self) -> Outputs:
+        m, p = self.model, self.model.p
+        ev, active = self.evaluate_now()
+        q, qd = self.y[:N_Q], self.y[N_Q:2 * N_Q]
+        mesh = ev.theta * ev.km * ev.delta
+        if self.mode.separated:
+            state = CONTACT_SEPARATED
+        elif self.mode.stuck[active].any():
+            state = CONTACT_STICK
+        else:
+            state = CONTACT_SLIP
+        damp = ev.theta * p.cm * ev.ddelta
+        reaction = p.rb1 * (mesh + damp) - float(ev.friction @ ev.s1m)
+        i_near = int(np.argmin(np.abs(ev.xi - m.geom.xi_pitch))) if len(ev.xi) else 0
+        return Outputs(
+            time=self.t,
+            dte=ev.delta,
+            mesh_force=mesh,
+            friction_force=float(ev.friction.sum()),
+            contact_state=state,
+            output_torque=-p.rb2 * (p.kr2 * q[U2] + p.cr2 * qd[U2]),
+            input_torque_reaction=reaction,
+            gear1_speed=self.speed + qd[U1] / p.rb1,
+            gear2_speed=self.speed * p.ratio - qd[U2] / p.rb2,
+            sliding_velocity=float(ev.v[i_near]) if len(ev.v) else 0.0,
+        )
+
+    def energy(self) -> dict:
+        """Stored energy and the integrated power terms so far (J)."""
+        m = self.model
+        ev, _ = self.evaluate_now()
+        q, qd = self.y[:N_Q], self.y[N_Q:2 * N_Q]
+        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q + 0.5 * ev.theta * ev.km * ev.delta**2
+        return {"stored": float(stored), "input": float(self.y[12]),
+                "damping": float(self.y[13]), "friction": float(self.y[14]),
+                "parametric": float(self.y[15])}

@@ -1,0 +1,126 @@
+"""Mesh stiffness per tooth pair against contact position (Fig. 4; MODEL.md "Choices").
+
+All laws are reduced once, at model build, to a table of per-pair stiffness against the
+position ``xi`` along the path of contact (from A), scaled so that the time mean of the total
+mesh stiffness is ``km_mean``. The right-hand side then only interpolates.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .effects import StiffnessSpec
+from .geometry import Geometry
+from .params import GearParams
+
+N_TABLE = 401  # grid points along the path; the potential-energy law is smooth at this scale
+
+
+@dataclass(frozen=True)
+class MeshStiffness:
+    """Per-pair mesh stiffness ``k(xi)`` (N/m) on ``0 <= xi <= L``.
+
+    Attributes
+    ----------
+    kind : the law it came from
+    xi : grid positions from A (m)
+    k : per-pair stiffness on the grid (N/m); for ``constant`` unused
+    km_mean : time mean of the total (N/m)
+    """
+
+    kind: str
+    xi: np.ndarray
+    k: np.ndarray
+    km_mean: float
+
+    @classmethod
+    def build(cls, p: GearParams, g: Geometry, spec: StiffnessSpec) -> MeshStiffness:
+        L = g.path_length
+        if spec.kind == "constant":
+            return cls("constant", np.array([0.0, L]), np.array([p.km_mean, p.km_mean]),
+                       p.km_mean)
+        if spec.kind == "rectangular":
+            k0 = p.km_mean / g.contact_ratio  # mean of total = k0 * eps
+            return cls("rectangular", np.array([0.0, L]), np.array([k0, k0]), p.km_mean)
+        if spec.kind == "table":
+            tab = np.asarray(spec.table, dtype=float)
+            xi = np.linspace(0.0, L, N_TABLE)
+            k = np.interp(xi, tab[:, 0], tab[:, 1])
+        else:
+            from .potential_energy import pair_stiffness_raw
+
+            xi = np.linspace(0.0, L, N_TABLE)
+            k = pair_stiffness_raw(p, g, xi)
+        if spec.scale_to_mean:
+            # Time mean of the total is (1/pb) * integral_0^L k dxi: over n_pairs base
+            # pitches each of the n_pairs tracked pairs sweeps the path once.
+            mean = np.trapezoid(k, xi) / g.base_pitch
+            k = k * (p.km_mean / mean)
+        mean = float(np.trapezoid(k, xi) / g.base_pitch)
+        return cls(spec.kind, xi, k, mean)
+
+    def pairs(self, xi: np.ndarray, n_in_contact: int) -> np.ndarray:
+        """Stiffness (N/m) of pairs at positions ``xi`` (all in contact)."""
+        if self.kind == "constant":
+            return np.full(np.shape(xi), self.km_mean / max(n_in_contact, 1))
+        return np.interp(xi, self.xi, self.k)
+
+    def slope(self, xi: np.ndarray, n_in_contact: int) -> np.ndarray:
+        """d k / d xi (N/m^2) of pairs at ``xi`` (for the energy balance's parametric term)."""
+        if self.kind in ("constant", "rectangular"):
+            return np.zeros(np.shape(xi))
+        dk = np.diff(self.k) / np.diff(self.xi)
+        idx = np.clip(np.searchsorted(self.xi, xi, side="right") - 1, 0, len(dk) - 1)
+        return dk[idx]
+
+    def total(self, g: Geometry, s: np.ndarray) -> np.ndarray:
+        """Total mesh stiffness km (N/m) at mesh travels ``s`` (m), for plots (Fig. 4)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        out = np.zeros_like(s)
+        for i, si in enumerate(s):
+            xi = g.pair_positions(si)
+            on = g.in_contact(xi)
+            out[i] = self.pairs(xi[on], int(on.sum())).sum()
+        return out
+
+
+def read_table(path: str | Path, p: GearParams | None = None) -> tuple[tuple[float, float], ...]:
+    """Read a per-pair stiffness table from CSV.
+
+    Columns: ``position_m,stiffness_n_per_m`` (position along the path of contact from its
+    start A), or ``angle_rad,stiffness_n_per_m`` (rotation of gear 1 from the start of contact,
+    converted with ``xi = rb1 * angle``, which needs ``p``). A header row is required.
+    """
+    path = Path(path)
+    with path.open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    if len(rows) < 3:
+        raise ValueError(f"stiffness table {path}: needs a header and at least 2 rows")
+    head = [h.strip().lower() for h in rows[0]]
+    if len(head) < 2 or head[1] not in ("stiffness_n_per_m", "stiffness"):
+        raise ValueError(
+            f"stiffness table {path}: header must be 'position_m,stiffness_n_per_m' or "
+            f"'angle_rad,stiffness_n_per_m', got {','.join(rows[0])}"
+        )
+    scale = 1.0
+    if head[0] == "angle_rad":
+        if p is None:
+            raise ValueError("stiffness table in angle needs the gear parameters (rb1)")
+        scale = p.rb1
+    elif head[0] != "position_m":
+        raise ValueError(f"stiffness table {path}: first column must be position_m or angle_rad")
+    out = []
+    for i, r in enumerate(rows[1:], start=2):
+        try:
+            a, b = float(r[0]), float(r[1])
+        except (ValueError, IndexError):
+            raise ValueError(f"stiffness table {path}, line {i}: two numbers expected") from None
+        if not (math.isfinite(a) and math.isfinite(b)):
+            raise ValueError(f"stiffness table {path}, line {i}: non-finite value")
+        out.append((a * scale, b))
+    return tuple(out)

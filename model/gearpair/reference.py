@@ -251,6 +251,15 @@ class ReferenceEngine(Engine):
             return event_values(m, ev, mode, active), ev
 
         g_prev, ev0 = values(t0, self.y)
+        # A known boundary can invalidate a stick at once (the entering pair takes load, so
+        # mu f_mesh drops below the static friction): release it before integrating.
+        for i, (kind, j) in enumerate(labels):
+            if kind == "pair" and mode.stuck[j] and g_prev[i] < 0.0:
+                self.mode, qd = switch(m, labels[i], self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
+                                       self.torque, self.speed, active, mode)
+                self.y = self.y.copy()
+                self.y[N_Q:2 * N_Q] = qd
+                return 1, 0, ev0.theta * ev0.km * ev0.delta
         n_steps = 0
         while True:
             msg = solver.step()

@@ -1,0 +1,374 @@
+"""Build the GearPair FMI 2.0 co-simulation FMU: ``python build_fmu.py [--out dist]``.
+
+Runs the pythonfmu builder on ``fmu_src/GearPair.py`` with a copy of ``model/gearpair`` and a
+``requirements.txt`` as project files (so the FMU's resources hold ``gearpair/``), then
+completes the modelDescription.xml that pythonfmu 0.7.0 leaves partial: unit definitions,
+units/display units/min/max, ModelStructure dependencies and InitialUnknowns, capability
+flags. It also generates ``documentation/index.html``. Every variable's data comes from
+``GearPair.interface()``, which reads ``GearParams.describe()``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import html
+import importlib
+import math
+import shutil
+import sys
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+SCRIPT = ROOT / "fmu_src" / "GearPair.py"
+PACKAGE = ROOT / "model" / "gearpair"
+REQUIREMENTS = "numpy>=1.24\nscipy>=1.10\n"
+
+# Units: name -> SI base-unit exponents (FMI 2.0 BaseUnit attributes).
+UNITS: dict[str, dict[str, int]] = {
+    "1": {},
+    "s": {"s": 1},
+    "m": {"m": 1},
+    "kg": {"kg": 1},
+    "kg.m2": {"kg": 1, "m": 2},
+    "rad": {"rad": 1},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "N/m": {"kg": 1, "s": -2},
+    "N.s/m": {"kg": 1, "s": -1},
+    "Pa": {"kg": 1, "m": -1, "s": -2},
+    "rad/s": {"rad": 1, "s": -1},
+    "m/s": {"m": 1, "s": -1},
+}
+# Display units: value_display = factor * value + offset.
+DISPLAY_UNITS: dict[str, tuple[tuple[str, float], ...]] = {
+    "rad/s": (("rpm", 60.0 / (2.0 * math.pi)),),
+    "m": (("um", 1e6), ("mm", 1e3)),
+    "N": (("kN", 1e-3),),
+    "rad": (("deg", 180.0 / math.pi),),
+}
+CAPABILITIES = {
+    "canHandleVariableCommunicationStepSize": "true",
+    "canGetAndSetFMUstate": "true",
+    "canSerializeFMUstate": "true",
+    "canInterpolateInputs": "false",
+}
+DEFAULT_EXPERIMENT = {"startTime": "0", "stopTime": "0.5", "stepSize": "0.0001"}
+# Schema order of fmiModelDescription's children.
+_ORDER = ("ModelExchange", "CoSimulation", "UnitDefinitions", "TypeDefinitions",
+          "LogCategories", "DefaultExperiment", "VendorAnnotations", "ModelVariables",
+          "ModelStructure")
+
+
+def _num(x: float | int) -> str:
+    """Shortest text that reads back to the same double (or integer)."""
+    if isinstance(x, bool):
+        return "true" if x else "false"
+    if isinstance(x, int):
+        return str(x)
+    return repr(float(x))
+
+
+# -- modelDescription.xml ---------------------------------------------------------------------
+def complete_model_description(xml: bytes, spec: list[dict]) -> bytes:
+    """Return modelDescription.xml completed from the interface spec."""
+    root = ET.fromstring(xml)
+    by_name = {v["name"]: v for v in spec}
+
+    cosim = root.find("CoSimulation")
+    if cosim is None:
+        raise RuntimeError("modelDescription.xml has no CoSimulation element")
+    for k, v in CAPABILITIES.items():
+        cosim.set(k, v)
+
+    for tag in ("UnitDefinitions", "TypeDefinitions", "DefaultExperiment"):
+        for el in root.findall(tag):
+            root.remove(el)
+
+    used = {v["unit"] for v in spec if v["unit"]}
+    unknown = used - UNITS.keys()
+    if unknown:
+        raise RuntimeError(f"no unit definition for {sorted(unknown)}; add them to UNITS")
+    units = ET.Element("UnitDefinitions")
+    for name in sorted(used):
+        u = ET.SubElement(units, "Unit", name=name)
+        ET.SubElement(u, "BaseUnit", {k: str(e) for k, e in UNITS[name].items()})
+        for dname, factor in DISPLAY_UNITS.get(name, ()):
+            ET.SubElement(u, "DisplayUnit", name=dname, factor=repr(factor))
+    root.append(units)
+    root.append(ET.Element("DefaultExperiment", DEFAULT_EXPERIMENT))
+
+    variables = root.find("ModelVariables")
+    index: dict[str, int] = {}
+    for i, sv in enumerate(variables.findall("ScalarVariable"), start=1):
+        name = sv.get("name")
+        v = by_name.get(name)
+        if v is None:
+            raise RuntimeError(f"variable {name} is not in the interface spec")
+        index[name] = i
+        sv.set("description", v["description"])
+        if sv.get("causality") != v["causality"] or sv.get("variability") != v["variability"]:
+            raise RuntimeError(f"{name}: causality/variability differ from the spec")
+        typed = sv.find(v["type"])
+        if typed is None:
+            raise RuntimeError(f"{name}: expected a {v['type']} element")
+        if v["type"] == "Real":
+            if v["unit"]:
+                typed.set("unit", v["unit"])
+            if v["display_unit"]:
+                if v["display_unit"] not in dict(DISPLAY_UNITS.get(v["unit"], ())):
+                    raise RuntimeError(f"{name}: display unit {v['display_unit']} not defined")
+                typed.set("displayUnit", v["display_unit"])
+        for key in ("min", "max"):
+            if v[key] is not None and v["type"] != "Boolean":
+                typed.set(key, _num(int(v[key]) if v["type"] == "Integer" else float(v[key])))
+        if v["start"] is not None:
+            typed.set("start", _num(v["start"]))
+        elif "start" in typed.attrib:
+            del typed.attrib["start"]
+    missing = set(by_name) - set(index)
+    if missing:
+        raise RuntimeError(f"variables missing from modelDescription.xml: {sorted(missing)}")
+
+    inputs = [index[v["name"]] for v in spec if v["causality"] == "input"]
+    for el in root.findall("ModelStructure"):
+        root.remove(el)
+    structure = ET.Element("ModelStructure")
+    outs = ET.SubElement(structure, "Outputs")
+    init = ET.SubElement(structure, "InitialUnknowns")
+    for v in spec:
+        if v["causality"] != "output":
+            continue
+        i = str(index[v["name"]])
+        ET.SubElement(outs, "Unknown", index=i, dependencies=" ".join(map(str, inputs)),
+                      dependenciesKind=" ".join(["dependent"] * len(inputs)))
+        if v["name"] == "n_events":  # 0 before the first step: depends on nothing
+            ET.SubElement(init, "Unknown", index=i, dependencies="", dependenciesKind="")
+        else:  # no dependencies attribute: depends on all inputs and parameters
+            ET.SubElement(init, "Unknown", index=i)
+    root.append(structure)
+
+    root[:] = sorted(root, key=lambda el: _ORDER.index(el.tag))  # stable: keeps inner order
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def _rewrite_zip(fmu: Path, replace: dict[str, bytes]) -> None:
+    tmp = fmu.with_suffix(".tmp")
+    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            data = replace.pop(item.filename, None)
+            zout.writestr(item.filename, zin.read(item) if data is None else data,
+                          compress_type=zipfile.ZIP_DEFLATED)
+        for name, data in replace.items():
+            zout.writestr(name, data, compress_type=zipfile.ZIP_DEFLATED)
+    tmp.replace(fmu)
+
+
+# -- documentation ----------------------------------------------------------------------------
+def _cell(x) -> str:
+    if x is None:
+        return ""
+    if isinstance(x, bool):
+        return "true" if x else "false"
+    if isinstance(x, float):
+        return f"{x:.6g}"
+    return html.escape(str(x))
+
+
+def render_documentation(spec: list[dict], choices: dict) -> str:
+    def table(rows):
+        head = ("<tr><th>Name</th><th>Type</th><th>Unit</th><th>Display unit</th>"
+                "<th>Start</th><th>Min</th><th>Max</th><th>Description</th></tr>")
+        body = "\n".join(
+            f"<tr><td><code>{html.escape(v['name'])}</code></td><td>{v['type']}</td>"
+            f"<td>{_cell(v['unit'])}</td><td>{_cell(v['display_unit'])}</td>"
+            f"<td>{_cell(v['start'])}</td><td>{_cell(v['min'])}</td><td>{_cell(v['max'])}</td>"
+            f"<td>{html.escape(v['description'])}</td></tr>" for v in rows)
+        return f"<table>\n{head}\n{body}\n</table>"
+
+    switch_names = set(choices) | {"separation", "v_eps", "rtol"}
+    ins = [v for v in spec if v["causality"] == "input"]
+    outs = [v for v in spec if v["causality"] == "output"]
+    pars = [v for v in spec if v["causality"] == "parameter" and v["name"] not in switch_names]
+    sws = [v for v in spec if v["name"] in switch_names]
+    codes = "\n".join(
+        f"<li><code>{n}</code> ({field}): "
+        + ", ".join(f"{i} = <code>{c}</code>" for i, c in enumerate(cs)) + "</li>"
+        for n, (field, cs) in choices.items())
+    return f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>GearPair FMU</title>
+<style>
+body {{ font-family: sans-serif; max-width: 70em; margin: 2em auto; line-height: 1.4; }}
+table {{ border-collapse: collapse; margin: 1em 0; }}
+th, td {{ border: 1px solid #bbb; padding: 0.2em 0.5em; text-align: left; vertical-align: top; }}
+th {{ background: #eee; }}
+</style>
+</head>
+<body>
+<h1>GearPair: spur gear pair dynamics with tooth separation and stick-slip</h1>
+<p>FMI 2.0 co-simulation FMU of a spur gear pair after Xun, Dai &amp; Wang (2023): two gears
+with translational supports along the line of action, a load shaft on gear 2, time-varying
+mesh stiffness, tooth separation and tooth friction with exact switching between slip and
+stick. Gear 1 is driven at the shaft speed <code>speed</code> (its nominal rotation) with
+the torque <code>torque</code>; the FMU returns the dynamic transmission error, the mesh and
+friction forces, the torques and the shaft speeds. All values are SI; display units (rpm,
+um, kN, mm, deg) are declared for tools.</p>
+
+<h2>Using it</h2>
+<ul>
+<li>Default experiment: 0 to 0.5 s, communication step 1e-4 s. Inside every
+<code>fmi2DoStep</code> the engine integrates with the inputs held (zero-order hold) to
+exactly <code>currentCommunicationPoint + communicationStepSize</code>, locating every
+contact switch (separation, slip reversal, stick, break-away) within the step. Coarser
+communication steps are therefore accurate; the step figures
+(<code>stick_fraction</code>, <code>separation_fraction</code>, <code>mesh_force_max</code>,
+<code>n_events</code>) summarize what happened inside the step.</li>
+<li>At initialization the deflections start at static equilibrium under the input torque
+(no start-up transient from zero). The first <code>fmi2DoStep</code> starts the motion from
+its communication point with the inputs then set.</li>
+<li>Variable communication step sizes, <code>fmi2GetFMUstate</code>/<code>fmi2SetFMUstate</code>
+and state serialization are supported; a serialized state can be restored into a fresh
+instance of this FMU.</li>
+<li>The FMU runs Python code (pythonfmu). It needs Python 3 with numpy and scipy
+(<code>resources/requirements.txt</code>; <code>pythonfmu deploy -f GearPair.fmu</code>
+installs them). Python hosts (fmpy, libcosimpy, ecospy) use their own interpreter; other
+hosts on Linux need <code>LD_PRELOAD</code> set to the libpython of that interpreter.</li>
+</ul>
+
+<h2>Inputs</h2>
+{table(ins)}
+<h2>Outputs</h2>
+<p>Instantaneous values at the end of the last communication step, except the step figures
+(fractions, peak force and event count), which refer to the whole step. Before the first
+step they describe the initial instant.</p>
+{table(outs)}
+<h2>Effect switches (structural parameters)</h2>
+<p>An effect switched off removes its terms from the model (it is not a multiplier). Integer
+codes:</p>
+<ul>
+{codes}
+</ul>
+{table(sws)}
+<h2>Gear data (parameters)</h2>
+<p>Defaults are Table 1 of the paper, except <code>kr2</code>, which the paper does not give
+(chosen so that the slip model's first natural frequency is 32 Hz with the mean mesh
+stiffness). Damping coefficients follow from <code>damping_ratio</code>; base radii are
+r<sub>b</sub> = m z cos(alpha) / 2 (Eq. (5)).</p>
+{table(pars)}
+
+<h2>Model equations (references to the paper)</h2>
+<ul>
+<li>Eq. (3): mesh deflection delta along the line of action; output <code>dte</code>.</li>
+<li>Eq. (5): base radii, and the rotations expressed as displacements on the base circles.</li>
+<li>Eq. (8): tooth separation: mesh force and mesh damping vanish for delta &lt; 0
+(<code>separation</code> = true).</li>
+<li>Eq. (12): relative sliding velocity of each tooth pair (<code>sliding</code> = 0);
+<code>sliding</code> = 1 adds the rotational vibration.</li>
+<li>Eq. (14): the switching conditions between slip and stick
+(<code>friction_law</code> = 3).</li>
+<li>Eq. (16): elastic mesh force km Theta(delta) delta; output <code>mesh_force</code>.</li>
+<li>Eqs. (19)-(21): the paper's kinematic tie of stuck surfaces (<code>stick_tie</code> = 1);
+<code>stick_tie</code> = 0 holds the sliding velocity at exactly zero.</li>
+</ul>
+
+<h2>Limits and error handling</h2>
+<ul>
+<li>Inputs must be finite with |torque| &le; 1e6 N.m and |speed| &le; 2e4 rad/s. A step with
+an invalid input is refused (fmi2Discard) with a log message naming the input; the state is
+unchanged, so the master may correct the input and repeat the step.</li>
+<li>Parameters are checked against the ranges above when the model is built (at
+initialization and again at the first step); a value out of range is logged naming the
+parameter, and steps are refused (fmi2Discard). Parameters are fixed: changing one after
+initialization makes steps refuse until the FMU is reset or re-instantiated.</li>
+<li>If the integrator fails inside a step, the step is refused (fmi2Discard) and the state
+is that of the step start (lastSuccessfulTime).</li>
+<li>Steps must start at the FMU's current time (or restore an FMU state first) and have a
+positive size.</li>
+<li>Messages (which input or parameter was refused, and why) reach the master's logger only
+with debug logging on (<code>loggingOn</code> in <code>fmi2Instantiate</code>, fmpy's
+<code>debug_logging=True</code> or <code>--debug-logging</code>): pythonfmu forwards log
+messages only then.</li>
+<li>The integrator tolerance is the parameter <code>rtol</code>; the tolerance a master
+passes to <code>fmi2SetupExperiment</code> is not used.</li>
+<li>Inputs are held over the step; input derivatives (canInterpolateInputs) are not
+supported.</li>
+<li>The stiffness law "table" of the Python package is not exposed in the FMU.</li>
+</ul>
+</body>
+</html>
+"""
+
+
+# -- build ------------------------------------------------------------------------------------
+def _load_interface(staging: Path, script: Path):
+    """Import GearPair.py and the staged gearpair package; return (module, spec)."""
+    for p in (str(staging), str(script.parent)):
+        if p not in sys.path:
+            sys.path.insert(0, p)
+    mod = importlib.import_module(script.stem)
+    gp = mod._import_gearpair(str(staging))
+    return mod, mod.interface(gp)
+
+
+def build(out: str | Path = "dist", package: str | Path = PACKAGE,
+          script: str | Path = SCRIPT) -> Path:
+    """Build ``<out>/GearPair.fmu`` and return its path."""
+    from pythonfmu.builder import FmuBuilder
+
+    out, package, script = Path(out).resolve(), Path(package).resolve(), Path(script).resolve()
+    if not (package / "params.py").is_file():
+        raise FileNotFoundError(f"{package} is not the gearpair package")
+    out.mkdir(parents=True, exist_ok=True)
+    saved_path, saved_modules = list(sys.path), set(sys.modules)
+    try:
+        with tempfile.TemporaryDirectory(prefix="gearpair_fmu_") as tmp:
+            staging = Path(tmp) / "resources"
+            staging.mkdir()
+            shutil.copytree(package, staging / "gearpair",
+                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo"))
+            (staging / "requirements.txt").write_text(REQUIREMENTS)
+            mod, spec = _load_interface(staging, script)
+            docs = Path(tmp) / "documentation"
+            docs.mkdir()
+            (docs / "index.html").write_text(render_documentation(spec, mod.CHOICES),
+                                             encoding="utf-8")
+            fmu = FmuBuilder.build_FMU(
+                script, dest=out / "GearPair.fmu",
+                project_files=[staging / "gearpair", staging / "requirements.txt"],
+                documentation_folder=docs,
+                canHandleVariableCommunicationStepSize=True,
+                canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+            fmu = Path(fmu)
+            with zipfile.ZipFile(fmu) as z:
+                xml = z.read("modelDescription.xml")
+            _rewrite_zip(fmu, {"modelDescription.xml": complete_model_description(xml, spec)})
+    finally:
+        # The builder imports GearPair and gearpair from temporary folders: forget them so
+        # that an FMU instantiated later in this process imports its own bundled copy.
+        sys.path[:] = saved_path
+        for name in set(sys.modules) - saved_modules:
+            if name in ("GearPair", "gearpair") or name.startswith("gearpair."):
+                del sys.modules[name]
+    return fmu
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="dist", help="output folder (default: dist)")
+    ap.add_argument("--package", default=str(PACKAGE), help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    fmu = build(args.out, package=args.package)
+    print(f"built {fmu} in {time.perf_counter() - t0:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

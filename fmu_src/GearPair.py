@@ -1,0 +1,466 @@
+"""FMI 2.0 co-simulation slave for the gearpair model (built with pythonfmu).
+
+Thin plumbing over the engine contract in ``gearpair.engine``: parameters and effect switches
+become FMU parameters, ``do_step`` validates the inputs, advances the engine to exactly
+``currentCommunicationPoint + communicationStepSize`` and copies its outputs. Nothing raises
+out of the slave (pythonfmu would turn any exception into fmi2Fatal): every problem is logged
+with fmi2Error and the step returns False (fmi2Discard) with the state left as it was.
+
+The ``gearpair`` package is imported from the FMU's resources folder, where the builder
+(``build_fmu.py``) puts a copy of it. Importing this module does not import ``gearpair``;
+`interface()` and the slave's constructor do.
+"""
+
+from __future__ import annotations
+
+import importlib
+import io
+import math
+import os
+import pickle
+import sys
+from typing import Any
+
+from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability
+from pythonfmu.default_experiment import DefaultExperiment
+from pythonfmu.enums import Fmi2Initial, Fmi2Status
+from pythonfmu.variables import Boolean, Integer, Real
+
+STATE_FORMAT = "gearpair-fmu-state/1"
+RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
+
+# Choices of the integer-coded structural parameters: FMU name -> (Effects field, codes).
+# The codes are part of the FMU interface: append, never reorder.
+CHOICES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "stiffness_model": ("stiffness", ("potential_energy", "constant", "rectangular")),
+    "friction_law": ("friction", ("off", "nominal", "regularized", "stick_slip")),
+    "sliding": ("sliding", ("paper", "full")),
+    "stick_tie": ("stick_tie", ("exact", "paper")),
+}
+CHOICE_DEFAULTS = {"stiffness_model": 0, "friction_law": 3, "sliding": 0, "stick_tie": 0}
+CHOICE_DOCS = {
+    "stiffness_model": "mesh stiffness law per tooth pair",
+    "friction_law": "tooth friction law",
+    "sliding": "relative sliding velocity: Eq. (12) translations only (paper) or with the "
+    "rotational vibration (full)",
+    "stick_tie": "how stuck surfaces move together: v = 0 held exactly (exact) or "
+    "Eqs. (19)-(21) (paper)",
+}
+
+# Display units chosen for parameters by their unit.
+_PARAM_DISPLAY_UNIT = {"rad": "deg", "m": "mm"}
+
+# Outputs: name, type, unit, display unit, min, max, description. Their values come from the
+# engine's Outputs (instantaneous, at the end of the step) and StepSummary (over the step).
+OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | None, str], ...] = (
+    ("dte", "Real", "m", "um", None, None,
+     "dynamic transmission error: mesh deflection along the line of action, Eq. (3)"),
+    ("mesh_force", "Real", "N", "kN", None, None,
+     "elastic mesh force km*Theta(delta)*delta, Eq. (16)"),
+    ("friction_force", "Real", "N", None, None, None,
+     "total tangential tooth force (sliding or static friction), sum over the pairs"),
+    ("contact_state", "Integer", None, None, 0, 2,
+     "contact state at the end of the step: 0 separated, 1 slip, 2 stick (any pair stuck)"),
+    ("output_torque", "Real", "N.m", None, None, None,
+     "torque delivered to the gear 2 shaft"),
+    ("input_torque_reaction", "Real", "N.m", None, None, None,
+     "torque the mesh exerts back on gear 1 about its axis"),
+    ("gear1_speed", "Real", "rad/s", "rpm", None, None,
+     "absolute speed of gear 1 (nominal + vibration)"),
+    ("gear2_speed", "Real", "rad/s", "rpm", None, None,
+     "absolute speed of gear 2 (nominal + vibration)"),
+    ("sliding_velocity", "Real", "m/s", None, None, None,
+     "relative sliding velocity of the tooth pair nearest the pitch point"),
+    ("stick_fraction", "Real", "1", None, 0.0, 1.0,
+     "fraction of the last communication step spent in stick (from located switches)"),
+    ("separation_fraction", "Real", "1", None, 0.0, 1.0,
+     "fraction of the last communication step with the teeth apart"),
+    ("mesh_force_max", "Real", "N", "kN", None, None,
+     "peak elastic mesh force in the last communication step"),
+    ("n_events", "Integer", None, None, 0, None,
+     "number of state switches located in the last communication step"),
+)
+_OUTPUT_FIELDS = ("dte", "mesh_force", "friction_force", "output_torque",
+                  "input_torque_reaction", "gear1_speed", "gear2_speed", "sliding_velocity")
+_SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
+_ALL_OUTPUTS = tuple(row[0] for row in OUTPUTS)
+
+
+def _import_gearpair(resources: str | None):
+    """Import the bundled ``gearpair`` (the resources folder goes first on ``sys.path``)."""
+    if resources and os.path.isdir(resources) and resources not in sys.path:
+        sys.path.insert(0, resources)
+    loaded = sys.modules.get("gearpair")
+    if loaded is not None and resources and os.path.isdir(os.path.join(resources, "gearpair")):
+        # An earlier instance in this process imported the package from a folder that is
+        # gone (hosts delete the extracted FMU): its lazy imports would fail, so import our
+        # copy instead. Live instances keep the module objects they hold.
+        paths = list(getattr(loaded, "__path__", []))
+        if paths and not any(os.path.isfile(os.path.join(p, "__init__.py")) for p in paths):
+            for name in [n for n in sys.modules if n == "gearpair" or n.startswith("gearpair.")]:
+                del sys.modules[name]
+    gp = importlib.import_module("gearpair")
+    for sub in ("params", "effects", "engine"):
+        importlib.import_module(f"gearpair.{sub}")
+    return gp
+
+
+def interface(gp=None) -> list[dict[str, Any]]:
+    """Every FMU variable in registration (value reference) order, as plain dicts.
+
+    Keys: name, type (Real/Integer/Boolean), causality, variability, unit, display_unit, min,
+    max, start (None for outputs), description. The single source for the slave's variables,
+    the modelDescription post-processing and the documentation page; parameter data come
+    from ``GearParams.describe()`` and the input data from ``OperatingPoint``.
+    """
+    if gp is None:
+        gp = _import_gearpair(None)
+    from dataclasses import fields
+
+    params_mod = importlib.import_module(gp.__name__ + ".params")
+    out: list[dict[str, Any]] = []
+
+    def add(name, typ, causality, variability, unit=None, display_unit=None, lo=None,
+            hi=None, start=None, description=""):
+        out.append(dict(name=name, type=typ, causality=causality, variability=variability,
+                        unit=unit, display_unit=display_unit, min=lo, max=hi, start=start,
+                        description=description))
+
+    display_in = {"torque": None, "speed": "rpm"}
+    for f in fields(params_mod.OperatingPoint):
+        m = f.metadata
+        add(f.name, "Real", "input", "continuous", m["unit"], display_in.get(f.name),
+            m["min"], m["max"], float(f.default), m["doc"] + ", held over each step")
+
+    for name, typ, unit, dunit, lo, hi, doc in OUTPUTS:
+        add(name, typ, "output", "discrete" if typ == "Integer" else "continuous", unit, dunit,
+            lo, hi, None, doc)
+
+    for row in params_mod.GearParams.describe():
+        is_int = isinstance(row["default"], int) and not isinstance(row["default"], bool)
+        doc = row["doc"]
+        if row.get("lo_open"):
+            doc += f" (must be > {row['min']:g})"
+        add(row["name"], "Integer" if is_int else "Real", "parameter", "fixed",
+            None if is_int else row["unit"], _PARAM_DISPLAY_UNIT.get(row["unit"]),
+            row["min"], row["max"], row["default"], doc)
+
+    for name in ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
+                 "stick_tie"):
+        if name == "separation":
+            add(name, "Boolean", "parameter", "fixed", start=True,
+                description="tooth separation, Eq. (8): mesh force and mesh damping vanish "
+                "when the teeth part (false: the mesh spring also pulls)")
+        elif name == "v_eps":
+            add(name, "Real", "parameter", "fixed", "m/s", None, 1e-9, 1.0, 1e-4,
+                "regularization velocity of friction_law = 2 (regularized), tanh(v/v_eps)")
+        else:
+            codes = CHOICES[name][1]
+            listing = ", ".join(f"{i} {c}" for i, c in enumerate(codes))
+            add(name, "Integer", "parameter", "fixed", None, None, 0, len(codes) - 1,
+                CHOICE_DEFAULTS[name], f"{CHOICE_DOCS[name]}: {listing}")
+    add("rtol", "Real", "parameter", "fixed", "1", None, 1e-12, 1e-3, 1e-8,
+        "relative tolerance of the engine's integrator")
+    return out
+
+
+class _StateUnpickler(pickle.Unpickler):
+    """Unpickler for serialized FMU states: plain data, numpy arrays and gearpair classes."""
+
+    _ALLOWED = {
+        ("builtins", "set"), ("builtins", "frozenset"), ("builtins", "complex"),
+        ("builtins", "slice"), ("builtins", "range"), ("builtins", "bytearray"),
+        ("collections", "OrderedDict"),
+        ("numpy", "dtype"), ("numpy", "ndarray"),
+        ("numpy._core.numeric", "_frombuffer"), ("numpy.core.numeric", "_frombuffer"),
+        ("numpy._core.multiarray", "_reconstruct"), ("numpy.core.multiarray", "_reconstruct"),
+        ("numpy._core.multiarray", "scalar"), ("numpy.core.multiarray", "scalar"),
+    }
+
+    def find_class(self, module: str, name: str):
+        if (module, name) in self._ALLOWED:
+            return super().find_class(module, name)
+        if module in ("gearpair", "numpy.dtypes") or module.startswith("gearpair."):
+            obj = super().find_class(module, name)
+            if isinstance(obj, type):  # classes only, never functions
+                return obj
+        raise pickle.UnpicklingError(f"FMU state refers to {module}.{name}, which is not allowed")
+
+
+def _loads_state(data: bytes) -> dict:
+    state = _StateUnpickler(io.BytesIO(data)).load()
+    if not isinstance(state, dict) or state.get("format") != STATE_FORMAT:
+        raise ValueError("not a GearPair FMU state")
+    return state
+
+
+class GearPair(Fmi2Slave):
+    """Spur gear pair with time-varying mesh stiffness, tooth separation and stick-slip."""
+
+    author = "gearpair project"
+    description = ("Spur gear pair dynamics (Xun, Dai & Wang 2023): time-varying mesh "
+                   "stiffness, tooth separation, tooth friction with exact stick-slip switching")
+    version = "0.1.0"
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=0.5, step_size=1e-4)
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self._gp = _import_gearpair(self.resources)
+        self._warn_foreign_package()
+        self._spec = interface(self._gp)
+        self._param_names = tuple(v["name"] for v in self._spec if v["causality"] == "parameter")
+        for v in self._spec:
+            start = v["start"]
+            if v["type"] == "Integer":
+                setattr(self, v["name"], int(start) if start is not None else 0)
+            elif v["type"] == "Boolean":
+                setattr(self, v["name"], bool(start))
+            else:
+                setattr(self, v["name"], float(start) if start is not None else 0.0)
+            self._register(v)
+        self._engine = None
+        self._engine_key: tuple | None = None  # parameter values the engine was built with
+        self._start_time = 0.0
+        self._stepped = False  # at least one step done since initialization
+        self._poisoned: str | None = None  # set when a state restore failed
+
+    # -- setup -------------------------------------------------------------------------------
+    def _register(self, v: dict) -> None:
+        cls = {"Real": Real, "Integer": Integer, "Boolean": Boolean}[v["type"]]
+        kw: dict[str, Any] = dict(causality=getattr(Fmi2Causality, v["causality"]),
+                                  variability=getattr(Fmi2Variability, v["variability"]),
+                                  description=v["description"])
+        if v["causality"] == "parameter":
+            kw["initial"] = Fmi2Initial.exact
+        self.register_variable(cls(v["name"], **kw))
+
+    def _warn_foreign_package(self) -> None:
+        where = os.path.dirname(os.path.abspath(getattr(self._gp, "__file__", None) or
+                                                list(self._gp.__path__)[0]))
+        res = self.resources
+        if res and os.path.isdir(res) and \
+                os.path.commonpath([os.path.abspath(res), where]) != os.path.abspath(res):
+            self.log(f"using the gearpair package already imported in this process from {where}, "
+                     f"not the copy in the FMU resources {res}", Fmi2Status.warning)
+
+    def _param_values(self) -> tuple:
+        return tuple(getattr(self, n) for n in self._param_names)
+
+    def _build_engine(self):
+        """Validate the parameters and build the engine. Raises ValueError with a message
+        naming the offending parameter."""
+        gp = self._gp
+        params_mod = sys.modules[gp.__name__ + ".params"]
+        effects_mod = sys.modules[gp.__name__ + ".effects"]
+        values = {}
+        for row in params_mod.GearParams.describe():
+            values[row["name"]] = getattr(self, row["name"])
+        params = params_mod.GearParams(**values)
+        choice = {}
+        for name, (field_name, codes) in CHOICES.items():
+            code = getattr(self, name)
+            if isinstance(code, bool) or int(code) != code or not 0 <= int(code) < len(codes):
+                listing = ", ".join(f"{i} ({c})" for i, c in enumerate(codes))
+                raise ValueError(f"{name} = {code!r} is out of range; allowed {listing}")
+            choice[field_name] = codes[int(code)]
+        params_mod.check_range("v_eps", self.v_eps, {"unit": "m/s", "min": 1e-9, "max": 1.0})
+        params_mod.check_range("rtol", self.rtol, {"unit": "", "min": 1e-12, "max": 1e-3})
+        effects = effects_mod.Effects(
+            stiffness=effects_mod.StiffnessSpec(kind=choice.pop("stiffness")),
+            separation=bool(self.separation), v_eps=float(self.v_eps), **choice)
+        make = getattr(gp, "make_engine", None)
+        if make is not None:
+            return make(params, effects, engine="reference", rtol=float(self.rtol))
+        reference = importlib.import_module(gp.__name__ + ".reference")
+        return reference.ReferenceEngine(params, effects, rtol=float(self.rtol))
+
+    def _ensure_engine(self) -> str | None:
+        """Build the engine if needed; return an error message or None."""
+        key = self._param_values()
+        if self._engine is not None:
+            if key != self._engine_key:
+                changed = [n for n, a, b in zip(self._param_names, key, self._engine_key,
+                                                strict=True) if a != b]
+                return (f"parameter(s) {', '.join(changed)} changed after initialization; "
+                        "they are fixed (re-instantiate or reset the FMU to change them)")
+            return None
+        try:
+            engine = self._build_engine()
+        except (ValueError, TypeError, ArithmeticError) as e:
+            return f"invalid parameters: {e}"
+        except Exception as e:  # noqa: BLE001 - nothing may escape the slave
+            return f"engine construction failed: {type(e).__name__}: {e}"
+        self._engine, self._engine_key = engine, key
+        return None
+
+    def _copy_outputs(self, summary=None) -> None:
+        o = self._engine.outputs()
+        for name in _OUTPUT_FIELDS:
+            setattr(self, name, float(getattr(o, name)))
+        self.contact_state = int(o.contact_state)
+        if summary is None:  # no step yet: the figures describe the instant t0
+            self.stick_fraction = 1.0 if self.contact_state == 2 else 0.0
+            self.separation_fraction = 1.0 if self.contact_state == 0 else 0.0
+            self.mesh_force_max = self.mesh_force
+            self.n_events = 0
+        else:
+            for name in _SUMMARY_FIELDS:
+                setattr(self, name, float(getattr(summary, name)))
+            self.n_events = int(summary.n_events)
+
+    def _outputs_finite(self) -> str | None:
+        for name in _OUTPUT_FIELDS + _SUMMARY_FIELDS:
+            if not math.isfinite(getattr(self, name)):
+                return name
+        return None
+
+    def _error(self, msg: str) -> bool:
+        self.log(msg, Fmi2Status.error)
+        return False
+
+    # -- FMI calls ---------------------------------------------------------------------------
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self._start_time = float(start_time)
+        if tolerance is not None:
+            self.log(f"the master's tolerance {tolerance:g} is not used; the parameter rtol "
+                     f"({self.rtol:g}) sets the integrator tolerance", Fmi2Status.ok)
+
+    def exit_initialization_mode(self):
+        # Outputs at the start time, so a master reading them before the first step sees the
+        # static equilibrium. Errors are reported here and again by the first do_step (which
+        # returns fmi2Discard): this call cannot return an error status without a fatal one.
+        try:
+            msg = self._ensure_engine()
+            if msg is None:
+                msg = self._check_inputs()
+            if msg is None:
+                self._engine.reset(t0=self._start_time, torque=float(self.torque),
+                                   speed=float(self.speed), static=True)
+                self._copy_outputs()
+                self._stepped = False
+                return
+        except Exception as e:  # noqa: BLE001
+            msg = f"initialization failed: {type(e).__name__}: {e}"
+        self.log(msg, Fmi2Status.error)
+
+    def _check_inputs(self) -> str | None:
+        try:
+            self._gp.engine.check_inputs(self.torque, self.speed)
+        except ValueError as e:
+            return f"input refused: {e}"
+        return None
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        try:
+            return self._do_step(float(current_time), float(step_size))
+        except Exception as e:  # noqa: BLE001 - never let an exception reach pythonfmu
+            return self._error(f"internal error in do_step: {type(e).__name__}: {e}")
+
+    def _do_step(self, t: float, h: float) -> bool:
+        if self._poisoned:
+            return self._error(f"step refused: {self._poisoned}")
+        if not (math.isfinite(t) and math.isfinite(h)) or h <= 0.0:
+            return self._error(f"step refused: communication step size must be > 0 "
+                               f"(currentCommunicationPoint = {t!r}, step size = {h!r})")
+        msg = self._ensure_engine()
+        if msg is not None:
+            return self._error(f"step refused: {msg}")
+        msg = self._check_inputs()
+        if msg is not None:
+            return self._error(f"step refused at t = {t:g} s: {msg}")
+        eng = self._engine
+        torque, speed = float(self.torque), float(self.speed)
+        saved = eng.get_state()
+        shown = {name: getattr(self, name) for name in _ALL_OUTPUTS}
+        if self._stepped:
+            tol = 1e-9 * max(1.0, abs(t), h)
+            if abs(t - eng.time) > tol:
+                return self._error(
+                    f"step refused: currentCommunicationPoint = {t!r} s does not match the "
+                    f"FMU's time {eng.time!r} s (restore an FMU state to go back)")
+        try:
+            if not self._stepped:
+                eng.reset(t0=t, torque=torque, speed=speed, static=True)
+            summary = eng.advance(t + h, torque, speed)
+            self._copy_outputs(summary)
+            bad = self._outputs_finite()
+            if bad is not None:
+                raise ArithmeticError(f"output {bad} is not finite")
+        except Exception as e:  # noqa: BLE001
+            kind = "" if isinstance(e, (ValueError, ArithmeticError)) else \
+                f"{type(e).__name__}: "
+            restored = self._restore_engine(saved)
+            for name, value in shown.items():
+                setattr(self, name, value)
+            return self._error(f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
+                               + ("" if restored else "; the engine state could not be "
+                                  "restored, further steps are refused"))
+        self._stepped = True
+        return True
+
+    def _restore_engine(self, saved: dict) -> bool:
+        try:
+            self._engine.set_state(saved)
+            return True
+        except Exception as e:  # noqa: BLE001
+            self._poisoned = f"engine state lost after a failed step ({type(e).__name__}: {e})"
+            return False
+
+    # -- FMU state ---------------------------------------------------------------------------
+    def _get_fmu_state(self) -> bytes:
+        """A snapshot (pickled at once, so later steps cannot alter it)."""
+        state = {
+            "format": STATE_FORMAT,
+            "values": {v["name"]: getattr(self, v["name"]) for v in self._spec},
+            "engine": None if self._engine is None else self._engine.get_state(),
+            "engine_key": self._engine_key,
+            "start_time": self._start_time,
+            "stepped": self._stepped,
+            "poisoned": self._poisoned,
+        }
+        return pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+
+    def _set_fmu_state(self, state) -> None:
+        # Decode and rebuild everything first; touch self only when all succeeded. A failure
+        # cannot return an error status (it would be fatal), so it is logged and every later
+        # step is refused until a good state is set.
+        try:
+            s = _loads_state(bytes(state))
+            values = s["values"]
+            names = [v["name"] for v in self._spec]
+            if set(values) != set(names):
+                raise ValueError("the state is from a GearPair FMU with another interface")
+            engine = self._engine
+            key = s["engine_key"]
+            if s["engine"] is not None:
+                if engine is None or key != self._engine_key:
+                    saved = {n: getattr(self, n) for n in self._param_names}
+                    try:
+                        for n in self._param_names:
+                            setattr(self, n, values[n])
+                        engine = self._build_engine()
+                    finally:
+                        for n, x in saved.items():
+                            setattr(self, n, x)
+                engine.set_state(s["engine"])
+            else:
+                engine, key = None, None
+        except Exception as e:  # noqa: BLE001
+            self._poisoned = f"restoring an FMU state failed: {type(e).__name__}: {e}"
+            self.log(self._poisoned, Fmi2Status.error)
+            return
+        for n in names:
+            setattr(self, n, values[n])
+        self._engine, self._engine_key = engine, (tuple(key) if key is not None else None)
+        self._start_time = s["start_time"]
+        self._stepped = s["stepped"]
+        self._poisoned = s["poisoned"]
+
+    @staticmethod
+    def _fmu_state_to_bytes(state) -> bytes:
+        return bytes(state)
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes) -> bytes:
+        return bytes(state)
+

@@ -1,0 +1,357 @@
+"""Build the GearPair FMU once and check its model description, resources and behaviour."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import subprocess
+import sys
+import textwrap
+import zipfile
+from pathlib import Path
+
+import pytest
+
+fmpy = pytest.importorskip("fmpy")
+pytest.importorskip("pythonfmu")
+
+from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi1 import FMICallException  # noqa: E402
+from fmpy.fmi2 import (  # noqa: E402
+    FMU2Slave,
+    calloc,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    fmi2Discard,
+    fmi2Error,
+    free,
+)
+from fmpy.validation import validate_fmu  # noqa: E402
+
+pytestmark = pytest.mark.fmu
+
+ROOT = Path(__file__).resolve().parents[1]
+RPM = 2.0 * math.pi / 60.0
+
+
+def _build_module():
+    spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def fmu_path(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("fmu")
+    path = _build_module().build(out)
+    assert path == out / "GearPair.fmu" and path.is_file()
+    return path
+
+
+@pytest.fixture(scope="module")
+def md(fmu_path):
+    return read_model_description(str(fmu_path))
+
+
+@pytest.fixture(scope="module")
+def unzipdir(fmu_path, tmp_path_factory) -> str:
+    return str(extract(str(fmu_path), unzipdir=str(tmp_path_factory.mktemp("unzip"))))
+
+
+class Instance:
+    """An FMU2Slave with a logger that keeps the messages (debug logging on)."""
+
+    OUTPUTS = ("dte", "mesh_force", "friction_force", "output_torque", "input_torque_reaction",
+               "gear1_speed", "gear2_speed", "sliding_velocity", "stick_fraction",
+               "separation_fraction", "mesh_force_max")
+
+    def __init__(self, md, unzipdir: str, name: str = "gp") -> None:
+        self.md = md
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.messages: list[tuple[int, str]] = []
+
+        def logger(env, instance, status, category, message):
+            self.messages.append((status, message.decode("utf-8")))
+
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(logger)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._cb = cb  # keep the ctypes callbacks alive
+        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(callbacks=cb, loggingOn=True)
+
+    def initialize(self, t0: float = 0.0, **start) -> None:
+        self.fmu.setupExperiment(startTime=t0)
+        self.set(**start)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def set(self, **values) -> None:
+        for name, value in values.items():
+            vr = [self.vr[name]]
+            if isinstance(value, bool):
+                self.fmu.setBoolean(vr, [value])
+            elif isinstance(value, int):
+                self.fmu.setInteger(vr, [value])
+            else:
+                self.fmu.setReal(vr, [float(value)])
+
+    def outputs(self) -> tuple:
+        reals = self.fmu.getReal([self.vr[n] for n in self.OUTPUTS])
+        ints = self.fmu.getInteger([self.vr["contact_state"], self.vr["n_events"]])
+        return tuple(reals) + tuple(ints)
+
+    def steps(self, t: float, h: float, n: int) -> tuple[float, list[tuple]]:
+        rows = []
+        for _ in range(n):
+            self.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            t += h
+            rows.append(self.outputs())
+        return t, rows
+
+    def close(self) -> None:
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+
+
+FAST = {"rtol": 1e-6}  # looser tolerance for quick behavioural tests
+
+
+# -- model description ----------------------------------------------------------------------
+def test_validate_finds_no_problems(fmu_path):
+    assert validate_fmu(str(fmu_path)) == []
+
+
+def test_units_ranges_and_flags(md):
+    v = {x.name: x for x in md.modelVariables}
+    assert (v["torque"].unit, v["torque"].min, v["torque"].max) == ("N.m", "-1000000.0",
+                                                                    "1000000.0")
+    assert v["torque"].causality == "input" and float(v["torque"].start) == 3900.0
+    assert (v["speed"].unit, v["speed"].displayUnit) == ("rad/s", "rpm")
+    assert float(v["speed"].start) == pytest.approx(100 * RPM, rel=1e-15)
+    assert (v["dte"].unit, v["dte"].displayUnit) == ("m", "um")
+    assert (v["mesh_force"].unit, v["mesh_force"].displayUnit) == ("N", "kN")
+    assert (v["gear2_speed"].unit, v["gear2_speed"].displayUnit) == ("rad/s", "rpm")
+    assert (v["m1"].unit, float(v["m1"].min), float(v["m1"].max)) == ("kg", 0.0, 1e5)
+    assert v["m1"].causality == "parameter" and v["m1"].variability == "fixed"
+    assert v["pressure_angle"].displayUnit == "deg"
+    assert (v["z1"].type, v["z1"].min, v["z1"].max) == ("Integer", "12", "400")
+    assert (v["stiffness_model"].type, v["stiffness_model"].min, v["stiffness_model"].max) == (
+        "Integer", "0", "2")
+    assert (v["friction_law"].start, v["friction_law"].max) == ("3", "3")
+    assert v["separation"].type == "Boolean" and v["separation"].variability == "fixed"
+    assert (float(v["rtol"].min), float(v["rtol"].max), float(v["rtol"].start)) == (
+        1e-12, 1e-3, 1e-8)
+    for name in ("contact_state", "n_events"):
+        assert v[name].type == "Integer" and v[name].variability == "discrete"
+    assert all(x.description for x in md.modelVariables)
+
+    units = {u.name: u for u in md.unitDefinitions}
+    rpm = {d.name: d for d in units["rad/s"].displayUnits}["rpm"]
+    assert rpm.factor == pytest.approx(60 / (2 * math.pi))
+    assert (units["N"].baseUnit.kg, units["N"].baseUnit.m, units["N"].baseUnit.s) == (1, 1, -2)
+
+    cs = md.coSimulation
+    assert cs.canHandleVariableCommunicationStepSize
+    assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
+    de = md.defaultExperiment
+    assert (de.startTime, de.stopTime, de.stepSize) == ("0", "0.5", "0.0001")
+
+    inputs = {v["torque"], v["speed"]}
+    outputs = [x for x in md.modelVariables if x.causality == "output"]
+    assert {u.variable for u in md.outputs} == set(outputs)
+    for u in md.outputs:
+        assert set(u.dependencies) == inputs
+
+
+def test_parameters_match_gearparams(md):
+    """Every GearParams field is a parameter with the field's unit and range."""
+    spec = importlib.util.spec_from_file_location(
+        "_gp_params", ROOT / "model" / "gearpair" / "params.py")
+    params = importlib.util.module_from_spec(spec)
+    sys.modules["_gp_params"] = params  # dataclasses look their module up
+    try:
+        spec.loader.exec_module(params)
+    finally:
+        del sys.modules["_gp_params"]
+    v = {x.name: x for x in md.modelVariables}
+    for row in params.GearParams.describe():
+        var = v[row["name"]]
+        assert var.causality == "parameter" and var.initial == "exact"
+        assert float(var.min) == row["min"] and float(var.max) == row["max"]
+        assert float(var.start) == row["default"]
+        if var.type == "Real":
+            assert var.unit == row["unit"]
+
+
+def test_resources_and_documentation(fmu_path):
+    with zipfile.ZipFile(fmu_path) as z:
+        names = set(z.namelist())
+        req = z.read("resources/requirements.txt").decode()
+        doc = z.read("documentation/index.html").decode()
+    for f in ("__init__.py", "engine.py", "params.py", "effects.py", "reference.py"):
+        assert f"resources/gearpair/{f}" in names
+    assert not any("__pycache__" in n for n in names)
+    assert "resources/GearPair.py" in names and "binaries/linux64/GearPair.so" in names
+    assert "numpy" in req and "scipy" in req
+    for word in ("torque", "mesh_force", "stick_fraction", "friction_law", "stiffness_model",
+                 "rtol", "Eq. (14)", "rpm"):
+        assert word in doc
+
+
+# -- behaviour ------------------------------------------------------------------------------
+def test_simulate_fmu_gives_finite_outputs(fmu_path):
+    res = fmpy.simulate_fmu(str(fmu_path), stop_time=3e-3, output_interval=1e-3,
+                            start_values=dict(FAST))
+    assert len(res) == 4 and res["time"][-1] == pytest.approx(3e-3)
+    for name in res.dtype.names:
+        assert all(math.isfinite(x) for x in res[name]), name
+    assert set(res["contact_state"]) <= {0, 1, 2}
+    assert 30e3 < res["mesh_force"][0] < 60e3  # static mesh force near 42 kN
+    assert res["gear1_speed"][0] == pytest.approx(100 * RPM)
+
+
+def test_fmu_imports_its_bundled_package(fmu_path, tmp_path):
+    # also after an earlier simulation in the process whose extracted folder is deleted
+    code = textwrap.dedent(f"""
+        import sys
+        from fmpy import extract, read_model_description, simulate_fmu
+        from fmpy.fmi2 import FMU2Slave
+        simulate_fmu({str(fmu_path)!r}, stop_time=1e-3, output_interval=1e-3)
+        md = read_model_description({str(fmu_path)!r})
+        d = extract({str(fmu_path)!r})
+        s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier="GearPair",
+                      instanceName="x")
+        s.instantiate()
+        print(sys.modules["gearpair"].__file__.startswith(str(d)))
+        s.terminate(); s.freeInstance()
+    """)
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().endswith("True")
+
+
+def test_nan_input_is_refused_and_step_can_be_repeated(md, unzipdir):
+    g = Instance(md, unzipdir)
+    g.initialize(**FAST)
+    t, _ = g.steps(0.0, 1e-4, 2)
+    before = g.outputs()
+    g.set(torque=math.nan)
+    with pytest.raises(FMICallException) as exc:
+        g.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=1e-4)
+    assert exc.value.status in (fmi2Discard, fmi2Error)
+    status, msg = g.messages[-1]
+    assert status == fmi2Error and "torque" in msg and "1e+06" in msg
+    assert g.outputs() == before  # state unchanged
+    g.set(torque=3900.0)  # repeat the step with a good input
+    g.steps(t, 1e-4, 1)
+    g.close()
+
+
+def test_bad_communication_point_and_step_size_are_refused(md, unzipdir):
+    g = Instance(md, unzipdir)
+    g.initialize(**FAST)
+    t, _ = g.steps(0.0, 1e-4, 1)
+    for cp, h in ((t + 1e-3, 1e-4), (t, 0.0), (t, -1e-4)):
+        with pytest.raises(FMICallException) as exc:
+            g.fmu.doStep(currentCommunicationPoint=cp, communicationStepSize=h)
+        assert exc.value.status == fmi2Discard
+    assert "does not match" in g.messages[-3][1]
+    assert "step size must be > 0" in g.messages[-1][1]
+    g.steps(t, 1e-4, 1)
+    g.close()
+
+
+@pytest.mark.parametrize("start, words", [
+    ({"m1": -1.0}, ("m1", "(0, 100000] kg")),
+    ({"friction_law": 7}, ("friction_law", "3 (stick_slip)")),
+    ({"rtol": 0.5}, ("rtol", "0.001")),
+    ({"z1": 5}, ("z1", "[12, 400]")),
+])
+def test_out_of_range_parameter_is_refused(md, unzipdir, start, words):
+    g = Instance(md, unzipdir)
+    g.initialize(**start)  # cannot return an error status: logs it
+    assert any(s == fmi2Error and all(w in m for w in words) for s, m in g.messages)
+    with pytest.raises(FMICallException) as exc:
+        g.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-4)
+    assert exc.value.status == fmi2Discard
+    status, msg = g.messages[-1]
+    assert status == fmi2Error and all(w in msg for w in words), msg
+    g.close()
+
+
+def test_out_of_range_parameter_via_simulate_fmu(fmu_path):
+    messages = []
+
+    def logger(env, instance, status, category, message):
+        messages.append(message.decode("utf-8"))
+
+    res = fmpy.simulate_fmu(str(fmu_path), stop_time=1e-3, output_interval=1e-3,
+                            start_values={"kb1": 1e20}, logger=logger, debug_logging=True)
+    assert res["time"][-1] == 0.0 and all(res["mesh_force"] == 0.0)  # no step was taken
+    assert any("kb1" in m and "out of range" in m for m in messages)
+
+
+def test_get_set_fmu_state_round_trip(md, unzipdir):
+    g = Instance(md, unzipdir)
+    g.initialize(**FAST)
+    t, _ = g.steps(0.0, 1e-4, 3)
+    state = g.fmu.getFMUstate()
+    _, first = g.steps(t, 1e-4, 3)
+    g.fmu.setFMUstate(state)
+    _, again = g.steps(t, 1e-4, 3)
+    assert again == first  # bit-identical
+    g.fmu.setFMUstate(state)  # a state can be set more than once
+    _, third = g.steps(t, 1e-4, 3)
+    assert third == first
+    g.fmu.freeFMUstate(state)
+    g.close()
+
+
+def test_serialized_state_restores_in_a_fresh_instance(md, unzipdir):
+    g = Instance(md, unzipdir, "a")
+    g.initialize(**FAST, torque=2500.0)
+    t, _ = g.steps(0.0, 1e-4, 3)
+    state = g.fmu.getFMUstate()
+    blob = g.fmu.serializeFMUstate(state)
+    g.fmu.freeFMUstate(state)
+    _, first = g.steps(t, 1e-4, 3)
+    g.close()
+
+    # a fresh instance with default parameters: the state brings rtol and torque along
+    for initialize in (True, False):
+        h = Instance(md, unzipdir, "b")
+        if initialize:
+            h.initialize()
+        s2 = h.fmu.deSerializeFMUstate(blob)
+        h.fmu.setFMUstate(s2)
+        h.fmu.freeFMUstate(s2)
+        assert h.fmu.getReal([h.vr["torque"], h.vr["rtol"]]) == [2500.0, 1e-6]
+        _, again = h.steps(t, 1e-4, 3)
+        assert again == first
+        assert not any(s >= fmi2Error for s, _ in h.messages), h.messages
+        h.close()
+
+
+def test_corrupt_serialized_state_is_rejected_without_crash(md, unzipdir):
+    import pickle
+
+    class Sneaky:
+        def __reduce__(self):
+            return (print, ("this must not run",))
+
+    g = Instance(md, unzipdir)
+    g.initialize(**FAST)
+    blob = pickle.dumps({"format": "gearpair-fmu-state/1", "values": {"x": Sneaky()}})
+    s = g.fmu.deSerializeFMUstate(blob)  # refused objects are detected when the state is set
+    g.fmu.setFMUstate(s)
+    assert g.messages and g.messages[-1][0] == fmi2Error
+    with pytest.raises(FMICallException):
+        g.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-4)
+    g.close()

@@ -263,3 +263,46 @@ def test_cli_simulate_json_and_csv(capsys, tmp_path):
 def test_cli_bad_input_exits_2(capsys):
     assert main(["simulate", "--mu", "-1"]) == 2
     assert "mu" in capsys.readouterr().err
+
+
+# -- stiffness tables and time-varying inputs ------------------------------------------------
+def test_stiffness_table_csv_in_position_and_angle(tmp_path):
+    from gearpair.effects import StiffnessSpec
+    from gearpair.stiffness import MeshStiffness, read_table
+
+    g = Geometry.from_params(P)
+    xi = np.linspace(0.0, g.path_length, 50)
+    k = 1e9 * (2.0 + np.sin(np.pi * xi / g.path_length))  # any smooth FE-like curve
+    def write(path, head, xs):
+        rows = "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(xs, k, strict=True))
+        path.write_text(head + "\n" + rows)
+        return path
+
+    pos = write(tmp_path / "k_pos.csv", "position_m,stiffness_n_per_m", xi)
+    ang = write(tmp_path / "k_ang.csv", "angle_rad,stiffness_n_per_m", xi / P.rb1)
+    s_pos = MeshStiffness.build(P, g, StiffnessSpec("table", read_table(pos)))
+    s_ang = MeshStiffness.build(P, g, StiffnessSpec("table", read_table(ang, P)))
+    assert np.allclose(s_pos.k, s_ang.k, rtol=1e-12)
+    # scaled so that the time mean of the total mesh stiffness is km_mean
+    s = np.linspace(0.0, g.base_pitch, 4001)[:-1]
+    assert s_pos.total(g, s).mean() == pytest.approx(P.km_mean, rel=2e-3)
+    # the shape is kept: ratio of stiffness at the middle and at the start of the path
+    assert s_pos.pairs(np.array([g.path_length / 2]), 1)[0] / s_pos.pairs(
+        np.array([0.0]), 1)[0] == pytest.approx(1.5, rel=1e-3)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("position_m,stiffness_n_per_m\n0,1e9\nzero,2e9\n")
+    with pytest.raises(ValueError, match="line 3"):
+        read_table(bad)
+
+
+def test_mesh_travel_is_the_integral_of_the_speed():
+    e = ReferenceEngine(P, Effects(stiffness="constant", friction="off"), rtol=1e-6)
+    e.reset(0.0, TR, 50 * RPM)
+    t, travel = 0.0, 0.0
+    for k, rpm in enumerate((50, 80, 20, 120, 0, 60)):
+        h = 1e-3 * (1 + k % 3)
+        e.advance(t + h, TR, rpm * RPM)
+        t += h
+        travel += P.rb1 * rpm * RPM * h
+    assert e.s == pytest.approx(travel, rel=1e-12)
+    assert e.time == t

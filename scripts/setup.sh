@@ -3,6 +3,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
+# System libraries of the optional co-simulation hosts: ecospy's engine links libtbb.so.12.
+if command -v apt-get >/dev/null 2>&1 && command -v dpkg >/dev/null 2>&1 \
+        && ! dpkg -s libtbb12 >/dev/null 2>&1; then
+    SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo -n"
+    { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq libtbb12; } >/dev/null 2>&1 \
+        || echo "setup.sh: could not install libtbb12; the ecospy host tests will be skipped" >&2
+fi
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip 2>&1 | grep -v "^WARNING: Location" || true
 .venv/bin/python -m pip install -q -e '.[dev]' 2>&1 | grep -v "^WARNING: Location" || true

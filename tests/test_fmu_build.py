@@ -15,7 +15,7 @@ import pytest
 fmpy = pytest.importorskip("fmpy")
 pytest.importorskip("pythonfmu")
 
-from fmpy import extract, read_model_description  # noqa: E402
+from fmpy import extract  # noqa: E402
 from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi2 import (  # noqa: E402
     FMU2Slave,
@@ -34,26 +34,6 @@ pytestmark = pytest.mark.fmu
 
 ROOT = Path(__file__).resolve().parents[1]
 RPM = 2.0 * math.pi / 60.0
-
-
-def _build_module():
-    spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-@pytest.fixture(scope="module")
-def fmu_path(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("fmu")
-    path = _build_module().build(out)
-    assert path == out / "GearPair.fmu" and path.is_file()
-    return path
-
-
-@pytest.fixture(scope="module")
-def md(fmu_path):
-    return read_model_description(str(fmu_path))
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,212 @@
+"""The FMU in other co-simulation hosts: libcosimpy and ecospy (two instances in one process
+each), the `ecos` command-line host and a small C host (non-Python: the embedded interpreter
+needs the preload recipe of docs/hosts.md).
+
+Every host's outputs are compared with the same case run by fmpy (or, for the C host, with
+the reference engine stepped over the same communication points): ``|host - fmpy| <=
+K * rtol * scale`` with ``K = 1000`` as in test_fmu_harness.py. Hosts step on their own time
+grids (libcosim in integer nanoseconds, ecos by accumulating ``t += h``), which differ from
+fmpy's ``n * h`` in the last bit; that moves the solution by up to about 1e-6 of the scale at
+``rtol = 1e-6`` and 1e-8 of it at ``rtol = 1e-8``.
+
+A host that cannot be installed or run here is skipped with the reason;
+``scripts/setup.sh`` installs libcosimpy, ecospy and libtbb12 so that CI runs them all.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import shutil
+import signal
+import stat
+import subprocess
+import sys
+import sysconfig
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+fmpy = pytest.importorskip("fmpy")
+
+ROOT = Path(__file__).resolve().parents[1]
+HOSTS = ROOT / "examples" / "hosts"
+sys.path.insert(0, str(HOSTS))
+
+from hosts_common import INT_OUTPUTS, OUTPUTS, run_fmpy, value_references  # noqa: E402
+
+pytestmark = pytest.mark.fmu
+
+RPM = 2.0 * math.pi / 60.0
+K = 1000.0
+RTOL = 1e-8
+H = 1e-4
+N_STEPS = 20
+# two instances that differ in a parameter and an input
+CASES = {
+    "g1": {"rtol": RTOL},
+    "g2": {"rtol": RTOL, "torque": 2500.0, "speed": 300 * RPM, "mu": 0.05},
+}
+
+
+def assert_close(host: dict[str, np.ndarray], ref: dict[str, np.ndarray], rtol: float,
+                 names=OUTPUTS, label: str = "") -> dict[str, float]:
+    errors = {}
+    for name in names:
+        scale = max(float(np.max(np.abs(ref[name]))), 1e-300)
+        err = float(np.max(np.abs(np.asarray(host[name]) - ref[name]))) / scale
+        errors[name] = err
+        assert err <= K * rtol, (label, name, err)
+    return errors
+
+
+def _import_or_skip(module: str, hint: str):
+    try:
+        return pytest.importorskip(module)
+    except OSError as e:  # the wheel imports, but its native library does not load
+        pytest.skip(f"{module} cannot load its native library ({e}); {hint}")
+
+
+# -- Python hosts ------------------------------------------------------------------------------
+def test_libcosimpy_two_instances(fmu_path):
+    _import_or_skip("libcosimpy", "pip install libcosimpy")
+    import run_libcosim
+
+    res = run_libcosim.run(str(fmu_path), CASES, h_ns=round(H * 1e9), n_steps=N_STEPS)
+    for name, case in CASES.items():
+        ref = run_fmpy(str(fmu_path), case, H, N_STEPS)
+        assert_close(res[name], ref, RTOL, label=f"libcosim {name}")
+        np.testing.assert_array_equal(res[name]["contact_state"], ref["contact_state"])
+    assert not np.allclose(res["g1"]["dte"], res["g2"]["dte"])  # the instances are separate
+
+
+def test_ecospy_two_instances(fmu_path):
+    _import_or_skip("ecospy", "it needs the Debian package libtbb12 (scripts/setup.sh)")
+    import run_ecospy
+
+    res = run_ecospy.run(str(fmu_path), CASES, h=H, n_steps=N_STEPS)
+    for name, case in CASES.items():
+        ref = run_fmpy(str(fmu_path), case, H, N_STEPS)
+        assert_close(res[name], ref, RTOL, label=f"ecospy {name}")
+        np.testing.assert_array_equal(res[name]["contact_state"], ref["contact_state"])
+    assert not np.allclose(res["g1"]["dte"], res["g2"]["dte"])
+
+
+# -- non-Python hosts --------------------------------------------------------------------------
+def native_env() -> dict[str, str]:
+    """Environment for a non-Python host: preload libpython, find the venv's packages."""
+    libdir, ldlib = sysconfig.get_config_var("LIBDIR"), sysconfig.get_config_var("LDLIBRARY")
+    lib = Path(libdir or "", ldlib or "")
+    if not (ldlib and ldlib.endswith(".so") and lib.is_file()):
+        pytest.skip(f"this Python has no shared libpython ({lib}) to preload")
+    paths = dict.fromkeys([sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]])
+    env = dict(os.environ)
+    env["LD_PRELOAD"] = str(lib)
+    env["PYTHONPATH"] = os.pathsep.join(paths)
+    env.pop("PYTHONHOME", None)
+    return env
+
+
+def _signal_name(rc: int) -> str:
+    try:
+        return signal.Signals(-rc).name
+    except ValueError:
+        return str(rc)
+
+
+def test_c_host_variable_steps(fmu_path, tmp_path):
+    """A dlopen host in C, built with gcc against fmpy's FMI 2 headers, with step sizes that
+    change from call to call; compared with the reference engine over the same points."""
+    gcc = shutil.which("gcc") or shutil.which("cc")
+    if gcc is None:
+        pytest.skip("no C compiler")
+    env = native_env()
+    include = Path(fmpy.__file__).parent / "c-code"
+    if not (include / "fmi2Functions.h").is_file():
+        pytest.skip(f"fmpy ships no FMI 2 headers in {include}")
+    exe = tmp_path / "fmi2_host"
+    subprocess.run([gcc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{include}",
+                    "-o", str(exe), str(HOSTS / "fmi2_host.c"), "-ldl"], check=True)
+    unzipdir = Path(fmpy.extract(str(fmu_path), unzipdir=str(tmp_path / "unzip")))
+    md = fmpy.read_model_description(str(fmu_path))
+    vr = value_references(str(fmu_path))
+    steps = (1e-6, 1e-5, 3e-4, 1e-3, 4e-5, 6.49e-4)
+    n = 2 * len(steps)
+    cmd = [str(exe), str(unzipdir), md.coSimulation.modelIdentifier, md.guid,
+           ",".join(repr(h) for h in steps), str(n),
+           "-r", f"{vr['rtol'][0]}={RTOL!r}", "-r", f"{vr['torque'][0]}=2500",
+           "-o", ",".join(str(vr[o][0]) for o in OUTPUTS),
+           "-n", ",".join(str(vr[o][0]) for o in INT_OUTPUTS)]
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, f"rc {_signal_name(proc.returncode)}: {proc.stderr[-2000:]}"
+    rows = np.array([[float(x) for x in line.split(",")] for line in proc.stdout.split()])
+    assert rows.shape == (n + 1, 1 + len(OUTPUTS) + len(INT_OUTPUTS))
+    host = {o: rows[1:, 1 + j] for j, o in enumerate(OUTPUTS + INT_OUTPUTS)}
+
+    from gearpair import Effects, GearParams
+    from gearpair.reference import ReferenceEngine
+
+    eng = ReferenceEngine(GearParams(), Effects(), rtol=RTOL)
+    eng.reset(0.0, 2500.0, 100 * RPM, static=True)
+    t, ref = 0.0, {o: [] for o in OUTPUTS + INT_OUTPUTS}
+    for k in range(n):
+        t += steps[k % len(steps)]
+        eng.advance(t, 2500.0, 100 * RPM)
+        out = eng.outputs()
+        for o in OUTPUTS + INT_OUTPUTS:
+            ref[o].append(float(getattr(out, o)))
+    ref = {o: np.array(v) for o, v in ref.items()}
+    np.testing.assert_array_equal(rows[1:, 0], np.cumsum([steps[k % len(steps)]
+                                                          for k in range(n)]))
+    assert_close(host, ref, RTOL, label="C host")
+    np.testing.assert_array_equal(host["contact_state"], ref["contact_state"])
+
+
+def test_ecos_command_line(fmu_path, tmp_path):
+    """The `ecos` binary shipped in the ecospy wheel, with the preload recipe."""
+    ecospy = _import_or_skip("ecospy", "it needs the Debian package libtbb12")
+    src = Path(ecospy.__file__).parent / "binaries"
+    if not (src / "ecos").is_file():
+        pytest.skip(f"no ecos binary in {src}")
+    env = native_env()
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    for f in ("ecos", "proxyfmu", "libecosc.so"):  # the wheel installs them without +x
+        if (src / f).is_file():
+            shutil.copy2(src / f, bindir / f)
+            (bindir / f).chmod((bindir / f).stat().st_mode | stat.S_IXUSR)
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    # at least 10 steps: with fewer, ecos 0.7.2 dies of a division by zero in its progress
+    # report (SIGFPE)
+    proc = subprocess.run([str(bindir / "ecos"), "simulate", "--path", str(fmu_path),
+                           "--stepSize", repr(H), "--stopTime", repr(N_STEPS * H)],
+                          cwd=run_dir, env=env, capture_output=True, text=True, timeout=300)
+    log = proc.stdout + proc.stderr
+    wrote = "Wrote CSV data" in log
+    if proc.returncode != 0:
+        # Known: the embedded interpreter is finalized at process exit (pythonfmu) and
+        # that crashes now and then inside scipy's extension modules. Accept it only after
+        # the results were written; see docs/hosts.md.
+        assert proc.returncode < 0 and wrote, f"rc {_signal_name(proc.returncode)}: {log[-3000:]}"
+        warnings.warn(f"ecos exited with {_signal_name(proc.returncode)} at teardown after "
+                      "writing its results", stacklevel=1)
+    files = list(run_dir.glob("*.csv"))
+    assert len(files) == 1, log[-3000:]
+    with files[0].open() as fh:
+        reader = csv.reader(fh, skipinitialspace=True)
+        header = next(reader)
+        data = np.array([[float(x) for x in row] for row in reader if row])
+    col = {h.split("::")[-1].split("[")[0].strip(): j for j, h in enumerate(header)}
+    time = data[:, col["time"]]
+    # rows at 0, h, ..., (N - 1) h: ecos stops one step short of stopTime
+    assert time[0] == 0.0 and len(time) >= N_STEPS
+    ref = run_fmpy(str(fmu_path), {}, H, len(time) - 1)
+    # ecos prints 6 decimals: compare the signals that are large in SI units
+    host = {o: data[1:, col[o]] for o in ("mesh_force", "gear1_speed", "gear2_speed")}
+    np.testing.assert_allclose(time[1:], H * np.arange(1, len(time)), rtol=1e-12)
+    assert_close(host, ref, RTOL, names=tuple(host), label="ecos")
+    np.testing.assert_array_equal(data[1:, col["contact_state"]], ref["contact_state"])

@@ -14,9 +14,17 @@ __version__ = "0.1.0"
 
 def make_engine(params: GearParams | None = None, effects: Effects | None = None,
                 engine: str = "reference", **options) -> Engine:
-    """Build an engine by name (``reference``; more to come) with the given options."""
+    """Build an engine by name with the given options.
+
+    ``fast``: numba-compiled stepper (`gearpair.fast.FastEngine`), the production path;
+    ``reference``: scipy yardstick (`gearpair.reference.ReferenceEngine`).
+    """
     if engine == "reference":
         from .reference import ReferenceEngine
 
         return ReferenceEngine(params, effects, **options)
-    raise ValueError(f"engine = {engine!r}; choose one of: reference")
+    if engine == "fast":
+        from .fast import FastEngine
+
+        return FastEngine(params, effects, **options)
+    raise ValueError(f"engine = {engine!r}; choose one of: fast, reference")

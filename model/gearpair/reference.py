@@ -68,6 +68,7 @@ class ReferenceEngine(Engine):
         if not (1e-14 <= rtol <= 1e-2):
             raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
         self.model = Model.build(params, effects)
+        self._prev_active = None  # pairs in contact in the last segment (set by reset)
         self.rtol = rtol
         self.atol = _SCALE * (rtol if atol is None else atol / rtol * rtol)
         if atol is not None:
@@ -109,6 +110,8 @@ class ReferenceEngine(Engine):
         self.t_sep = 0.0
         self.n_events_total = 0
         self._last = None
+        self._h = None
+        self._prev_active = active
 
     def get_state(self) -> dict:
         return {
@@ -117,6 +120,7 @@ class ReferenceEngine(Engine):
             "dirs": self.mode.dirs.copy(), "stuck": self.mode.stuck.copy(),
             "t_stick": self.t_stick, "t_sep": self.t_sep, "n_events_total": self.n_events_total,
             "h": self._h, "last": self._last,
+            "prev_active": None if self._prev_active is None else np.array(self._prev_active),
         }
 
     def set_state(self, state: dict) -> None:
@@ -129,6 +133,8 @@ class ReferenceEngine(Engine):
         self.n_events_total = int(state["n_events_total"])
         self._h = state["h"]
         self._last = state["last"]
+        pa = state.get("prev_active")
+        self._prev_active = None if pa is None else np.asarray(pa, dtype=np.int64)
 
     # -- integration -------------------------------------------------------------------------
     def _travel(self, t: float) -> float:
@@ -213,8 +219,6 @@ class ReferenceEngine(Engine):
         self._last = (t_start, t_end)
         return StepSummary(t_start, t_end, (self.t_stick - stick0) / h,
                            (self.t_sep - sep0) / h, fmax, n_ev, n_steps)
-
-    _prev_active = None
 
     def _km_now(self, active):
         m = self.model

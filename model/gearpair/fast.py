@@ -1,0 +1,1230 @@
+"""The fast engine: the reference engine's physics and switching rules, compiled with numba.
+
+`FastEngine` implements the `Engine` contract with the same model (`equations.evaluate`), the
+same switching rules (`switching`: Eq. (14) stick test, the paper-tie rule, slip directions
+settled at entry and re-contact, the velocity projection at stick entry) and the same way of
+taking a step as `reference.ReferenceEngine`:
+
+- *known* discontinuities (a pair entering or leaving the path of contact; the pitch point
+  for the nominal friction law) are segment boundaries computed from the mesh travel
+  ``s = rb1 * speed * t``; the stored mesh energy that jumps there is booked as parametric
+  work;
+- inside a segment an embedded explicit Runge-Kutta pair integrates one contact state:
+  Dormand & Prince 5(4) (local extrapolation, FSAL) with its continuous extension of order 4,
+  error control in the RMS norm of ``atol + rtol * |y|`` and the step bounded by
+  ``max_step`` (half the period of the highest slip-model mode, as in the reference);
+- *unknown* switches are found by sampling the continuous extension at ``n_samples`` interior
+  points of every accepted step (plus its end) and watching every event function for a fall
+  through zero; the earliest fall is refined on the interpolant with the Illinois variant of
+  regula falsi until the bracket is shorter than ``t_tol`` (default 1e-14 s plus 4 ulp of t);
+  the located instant is the right end of the bracket (the state has already changed there).
+  The state then switches and the integrator restarts from the located instant.
+
+Everything on the hot path (`_advance` and what it calls) is ``numba.njit`` on flat
+float64/int64 arrays: no Python objects, no allocation in the right-hand side (the work arrays
+are allocated once per engine). Only this module imports numba; the package works without it.
+
+Compiled code is cached on disk (``cache=True``). Unless ``NUMBA_CACHE_DIR`` is set, the cache
+lives in a per-user directory (``$XDG_CACHE_HOME/gearpair/numba``, ``~/.cache/gearpair/numba``,
+or ``%LOCALAPPDATA%/gearpair/numba``) keyed by the content of this file rather than its
+location, so a copy of the package extracted to a fresh temporary directory (an FMU
+instantiation) finds the code compiled by an earlier one. If no cache directory can be used,
+the functions are compiled in memory on first use.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import sys
+import tempfile
+
+
+def _cache_dir() -> str | None:
+    """A writable directory for numba's cache (NUMBA_CACHE_DIR or a per-user one), or None."""
+    path = os.environ.get("NUMBA_CACHE_DIR")
+    if not path:
+        home = os.path.expanduser("~")
+        if sys.platform.startswith("win"):
+            base = os.environ.get("LOCALAPPDATA") or os.path.join(home, "AppData", "Local")
+        elif sys.platform == "darwin":
+            base = os.path.join(home, "Library", "Caches")
+        else:
+            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(home, ".cache")
+        path = os.path.join(base, "gearpair", "numba")
+    try:
+        os.makedirs(path, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except Exception:  # noqa: BLE001 - any failure means: no disk cache
+        return None
+    return path
+
+
+CACHE_DIR = _cache_dir()
+if CACHE_DIR is not None and "numba" not in sys.modules:
+    os.environ.setdefault("NUMBA_CACHE_DIR", CACHE_DIR)
+
+import numba  # noqa: E402  (after NUMBA_CACHE_DIR is set)
+import numpy as np  # noqa: E402
+
+from .effects import Effects  # noqa: E402
+from .engine import (  # noqa: E402
+    CONTACT_SEPARATED,
+    CONTACT_SLIP,
+    CONTACT_STICK,
+    Engine,
+    Outputs,
+    StepSummary,
+    check_inputs,
+)
+from .equations import U1, U2, Model  # noqa: E402
+from .params import GearParams  # noqa: E402
+
+
+def _install_locator() -> bool:
+    """Key the cache of this module's functions by file content, not by directory.
+
+    numba keys a cache directory by the absolute path of the source file, so a package
+    extracted to a new temporary directory would recompile. This locator puts the functions
+    of this file under ``<cache dir>/gearpair_fast_<sha1 of the file>``; numba itself still
+    checks the file's content hash (its source stamp). Returns whether caching can be used.
+    """
+    if CACHE_DIR is None:
+        return False
+    try:
+        from numba.core import caching
+
+        this = os.path.abspath(__file__)
+        with open(this, "rb") as fh:
+            digest = hashlib.sha1(fh.read() + numba.__version__.encode()).hexdigest()[:20]
+        where = os.path.join(CACHE_DIR, "gearpair_fast_" + digest)
+
+        class _ContentLocator(caching.UserProvidedCacheLocator):
+            _gearpair_digest = digest
+
+            def __init__(self, py_func, py_file):
+                super().__init__(py_func, py_file)
+                self._cache_path = where
+
+            @classmethod
+            def from_function(cls, py_func, py_file):
+                if os.path.abspath(py_file) != this:
+                    return None  # other modules keep numba's own locators
+                return super(caching.UserProvidedCacheLocator, cls).from_function(py_func,
+                                                                                 py_file)
+
+        classes = caching.CacheImpl._locator_classes
+        if not any(getattr(c, "_gearpair_digest", None) == digest for c in classes):
+            classes.insert(0, _ContentLocator)
+        return True
+    except Exception:  # noqa: BLE001 - numba internals changed: its default locators remain
+        return bool(numba.config.CACHE_DIR)
+
+
+CACHE = _install_locator()
+jit = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False)
+# Hot helpers are inlined at numba IR level: a call between compiled functions passes every
+# array by value with reference counting, which costs more than the arithmetic here.
+jit_inline = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
+                        _nrt=False)
+
+# -- flat layout of the model data ---------------------------------------------------------
+# float parameters (mp)
+P_MINV, P_C, P_KB = 0, 6, 12
+(P_RB1, P_RB2, P_RATIO, P_CM, P_MU, P_VEPS, P_S1A, P_S1S2, P_PB, P_L, P_PER, P_XIP, P_KMEAN,
+ P_RTOL, P_MAXSTEP, P_TTOL, P_DX, P_INVDX, P_SPACING, P_IRB1, P_IRB2, P_IPER) = range(18, 40)
+N_MP = 40
+# int flags (mi)
+(I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB) = range(10)
+N_MI = 10
+KIND_CONSTANT, KIND_TABLE = 0, 1
+FR_OFF, FR_NOMINAL, FR_REG, FR_STICK = 0, 1, 2, 3
+_FRICTION_CODE = {"off": FR_OFF, "nominal": FR_NOMINAL, "regularized": FR_REG,
+                  "stick_slip": FR_STICK}
+# per-pair work rows (pw)
+W_XI, W_S1M, W_S2M, W_K, W_N, W_F, W_V, W_NOM, W_LAMEX, W_STK, W_DK = range(11)
+N_PW = 11
+# scalar work (sc): delta, ddelta, km, theta, F[6], qdd[6]
+S_DELTA, S_DDELTA, S_KM, S_THETA, S_F, S_QDD = 0, 1, 2, 3, 4, 10
+N_SC = 16
+# continuous engine state (st) and discrete state (ist)
+T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED = range(7)
+N_ST = 7
+J_SEP, J_NPREV, J_NEVTOT = range(3)
+N_IST = 3
+N_Q = 6
+N_Y = 16  # q, q', and 4 energy quadratures: input, damping loss, friction work, parametric
+# summary of one advance (out)
+O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL = range(5)
+N_OUT = 5
+STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
+# typical magnitudes for the default absolute tolerance (as the reference)
+_SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0)]
+
+# Dormand & Prince 5(4): nodes, coupling, error weights (b - b_hat) and the continuous
+# extension of Hairer, Norsett & Wanner (order 4).
+_C2, _C3, _C4, _C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
+_A21 = 1.0 / 5.0
+_A31, _A32 = 3.0 / 40.0, 9.0 / 40.0
+_A41, _A42, _A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
+_A51, _A52, _A53, _A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
+_A61, _A62, _A63 = 9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0
+_A64, _A65 = 49.0 / 176.0, -5103.0 / 18656.0
+_B1, _B3, _B4, _B5, _B6 = (35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0,
+                           11.0 / 84.0)
+_E1, _E3, _E4, _E5, _E6, _E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0,
+                                -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0)
+_D1, _D3, _D4 = -12715105075.0 / 11282082432.0, 87487479700.0 / 32700410799.0, \
+    -10690763975.0 / 1880347072.0
+_D5, _D6, _D7 = 701980252875.0 / 199316789632.0, -1453857185.0 / 822651844.0, \
+    69997945.0 / 29380423.0
+_DP_C = np.array([0.0, _C2, _C3, _C4, _C5, 1.0, 1.0])
+_DP_A = np.zeros((7, 7))
+_DP_A[1, 0] = _A21
+_DP_A[2, :2] = _A31, _A32
+_DP_A[3, :3] = _A41, _A42, _A43
+_DP_A[4, :4] = _A51, _A52, _A53, _A54
+_DP_A[5, :5] = _A61, _A62, _A63, _A64, _A65
+_DP_A[6, :6] = _B1, 0.0, _B3, _B4, _B5, _B6  # FSAL: the last stage is at the new point
+
+
+# -- model functions (compiled) ------------------------------------------------------------
+@jit_inline
+def _sgn(x, fallback):
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    return fallback
+
+
+@jit_inline
+def _wrap(x, per):
+    """x mod per in [0, per) (numpy's mod for a positive divisor)."""
+    r = x - per * math.floor(x * (1.0 / per))
+    if r >= per:
+        r -= per
+    if r < 0.0:
+        r = 0.0
+    return r
+
+
+@jit_inline
+def _pair_xi(mp, s, j):
+    """Position from A of tracked pair j held in contact at mesh travel s (Model.contact)."""
+    per, L = mp[P_PER], mp[P_L]
+    x = s + j * mp[P_PB]
+    xi = x - per * math.floor(x * mp[P_IPER])
+    if xi >= per:
+        xi -= per
+    if xi < 0.0:
+        xi = 0.0
+    if xi > 0.5 * (L + per):
+        xi -= per
+    return min(max(xi, 0.0), L)
+
+
+@jit_inline
+def _table_index(mp, mi, x):
+    """Interval of the (uniform) stiffness table holding position x, clipped to the table."""
+    i = int(math.floor(x * mp[P_INVDX]))
+    return min(max(i, 0), mi[I_NTAB] - 2)
+
+
+@jit_inline
+def _pair_k(mp, mi, tx, tk, tdk, xi, xi_idx, nact):
+    """Stiffness of a pair at xi, on the table interval that holds xi_idx (the same one
+    over a step, so that a step ending on a knot uses the interval it integrated over)."""
+    if mi[I_KIND] == KIND_CONSTANT:
+        return mp[P_KMEAN] / max(nact, 1)
+    i = _table_index(mp, mi, xi_idx)
+    return tk[i] + (xi - tx[i]) * tdk[i]
+
+
+@jit_inline
+def _pair_kd(mp, mi, tx, tk, tdk, xi, xi_idx, nact, pw, i_pair):
+    """`_pair_k`, also storing the slope d k/d xi of the interval in pw[W_DK]."""
+    if mi[I_KIND] == KIND_CONSTANT:
+        pw[W_DK, i_pair] = 0.0
+        return mp[P_KMEAN] / max(nact, 1)
+    i = _table_index(mp, mi, xi_idx)
+    pw[W_DK, i_pair] = tdk[i]
+    return tk[i] + (xi - tx[i]) * tdk[i]
+
+
+@jit
+def _active_at(mp, mi, s, act):
+    """Tracked pairs on the path of contact at s (0 <= xi < L); returns their number."""
+    n = 0
+    for j in range(mi[I_NP]):
+        xi = _wrap(s + j * mp[P_PB], mp[P_PER])
+        if 0.0 <= xi < mp[P_L]:
+            act[n] = j
+            n += 1
+    return n
+
+
+@jit
+def _solve_small(Sm, n, nrhs):
+    """Gaussian elimination with partial pivoting on Sm[:n, :n | n:n+nrhs], in place;
+    solutions left in Sm[:n, n:n+nrhs]."""
+    for c in range(n):
+        p = c
+        best = abs(Sm[c, c])
+        for r in range(c + 1, n):
+            if abs(Sm[r, c]) > best:
+                best = abs(Sm[r, c])
+                p = r
+        if p != c:
+            for k in range(n + nrhs):
+                tmp = Sm[c, k]
+                Sm[c, k] = Sm[p, k]
+                Sm[p, k] = tmp
+        piv = Sm[c, c]
+        for r in range(c + 1, n):
+            f = Sm[r, c] / piv
+            if f != 0.0:
+                for k in range(c, n + nrhs):
+                    Sm[r, k] -= f * Sm[c, k]
+    for r in range(n - 1, -1, -1):
+        for k in range(n, n + nrhs):
+            acc = Sm[r, k]
+            for c in range(r + 1, n):
+                acc -= Sm[r, c] * Sm[c, k]
+            Sm[r, k] = acc / Sm[r, r]
+
+
+@jit
+def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, dirs, stuck,
+              pw, sc, Sm):
+    """`equations.evaluate` for one contact state, into the work arrays ``pw`` / ``sc``.
+
+    ``y`` holds q (0..5) and q' (6..11); ``dirs``/``stuck`` are over the tracked pairs;
+    ``s_idx`` is the mesh travel that picks the stiffness-table interval (see `_pair_k`).
+    """
+    rb1, rb2, mu = mp[P_RB1], mp[P_RB2], mp[P_MU]
+    irb1, irb2 = mp[P_IRB1], mp[P_IRB2]
+    fric = mi[I_FRIC]
+    full = mi[I_SLIDE] == 1
+    km = 0.0
+    for i in range(nact):
+        xi = _pair_xi(mp, s, act[i])
+        pw[W_XI, i] = xi
+        s1m = mp[P_S1A] + xi
+        pw[W_S1M, i] = s1m
+        pw[W_S2M, i] = mp[P_S1S2] - s1m
+        k = _pair_kd(mp, mi, tx, tk, tdk, xi, xi + (s_idx - s), nact, pw, i)
+        pw[W_K, i] = k
+        km += k
+    delta = y[1] - y[4] + y[2] + y[5]
+    ddelta = y[7] - y[10] + y[8] + y[11]
+    theta = 0.0 if sep else 1.0
+    sc[S_DELTA] = delta
+    sc[S_DDELTA] = ddelta
+    sc[S_KM] = km
+    sc[S_THETA] = theta
+    for m in range(6):
+        sc[S_F + m] = -mp[P_C + m] * y[6 + m] - mp[P_KB + m] * y[m]
+    gt = theta * (km * delta + mp[P_CM] * ddelta)
+    sc[S_F + 1] -= gt
+    sc[S_F + 2] -= gt
+    sc[S_F + 4] += gt
+    sc[S_F + 5] -= gt
+    sc[S_F + 2] += torque * irb1
+    ns = 0
+    for i in range(nact):
+        j = act[i]
+        s1m, s2m = pw[W_S1M, i], pw[W_S2M, i]
+        normal = theta * pw[W_K, i] * delta
+        pw[W_N, i] = normal
+        nom = speed * (mp[P_RATIO] * s2m - s1m)
+        pw[W_NOM, i] = nom
+        if full:
+            wq = -y[6] + s1m * irb1 * y[8] + y[9] + s2m * irb2 * y[11]
+            v = nom - wq
+        else:
+            v = nom + y[6] - y[9]
+        pw[W_V, i] = v
+        f = 0.0
+        pw[W_STK, i] = 0.0
+        pw[W_LAMEX, i] = 0.0
+        if fric == FR_NOMINAL:
+            f = mu * abs(normal) * _sgn(nom, 0.0)
+        elif fric == FR_REG:
+            f = mu * abs(normal) * math.tanh(v / mp[P_VEPS])
+        elif fric == FR_STICK:
+            if stuck[j] != 0:
+                pw[W_STK, i] = 1.0
+                ns += 1
+            else:
+                f = mu * abs(normal) * dirs[j]
+        pw[W_F, i] = f
+        if f != 0.0:
+            sc[S_F + 0] -= f
+            sc[S_F + 2] += f * s1m * irb1
+            sc[S_F + 3] += f
+            sc[S_F + 5] += f * s2m * irb2
+    if ns > 0:
+        # Static friction of the stuck pairs (equations.static_friction): rows a_a, columns
+        # w_b; rhs -(c + a M^-1 F) for the chosen tie (col ns) and the exact tie (col ns+1).
+        rate = -(1.0 + mp[P_RATIO]) * rb1 * speed * speed
+        turn = 0.0
+        if full:
+            turn = -(speed * y[8] - rb1 * speed / rb2 * y[11])
+        ra = 0
+        for ia in range(nact):
+            if pw[W_STK, ia] == 0.0:
+                continue
+            wa2, wa5 = pw[W_S1M, ia] / rb1, pw[W_S2M, ia] / rb2
+            rb = 0
+            for ib in range(nact):
+                if pw[W_STK, ib] == 0.0:
+                    continue
+                wb2, wb5 = pw[W_S1M, ib] / rb1, pw[W_S2M, ib] / rb2
+                if full:  # a = -w
+                    Sm[ra, rb] = -(mp[P_MINV + 0] + mp[P_MINV + 2] * wa2 * wb2 + mp[P_MINV + 3]
+                                   + mp[P_MINV + 5] * wa5 * wb5)
+                else:     # a = [1, 0, 0, -1, 0, 0]
+                    Sm[ra, rb] = -mp[P_MINV + 0] - mp[P_MINV + 3]
+                rb += 1
+            if full:
+                aF = -(-mp[P_MINV + 0] * sc[S_F] + wa2 * mp[P_MINV + 2] * sc[S_F + 2]
+                       + mp[P_MINV + 3] * sc[S_F + 3] + wa5 * mp[P_MINV + 5] * sc[S_F + 5])
+            else:
+                aF = mp[P_MINV + 0] * sc[S_F] - mp[P_MINV + 3] * sc[S_F + 3]
+            c_tie = turn + (rate if mi[I_TIE] == 0 else 0.0)
+            Sm[ra, ns] = -(c_tie + aF)
+            Sm[ra, ns + 1] = -(turn + rate + aF)
+            ra += 1
+        _solve_small(Sm, ns, 2)
+        ra = 0
+        for i in range(nact):
+            if pw[W_STK, i] == 0.0:
+                continue
+            lam = Sm[ra, ns]
+            pw[W_F, i] = lam
+            pw[W_LAMEX, i] = Sm[ra, ns + 1]
+            s1m, s2m = pw[W_S1M, i], pw[W_S2M, i]
+            sc[S_F + 0] -= lam
+            sc[S_F + 2] += lam * s1m / rb1
+            sc[S_F + 3] += lam
+            sc[S_F + 5] += lam * s2m / rb2
+            ra += 1
+    for m in range(6):
+        sc[S_QDD + m] = mp[P_MINV + m] * sc[S_F + m]
+
+
+@jit_inline
+def _n_events(mi, nact, sep):
+    n = 1 if mi[I_SEP] != 0 else 0
+    if mi[I_FRIC] == FR_STICK and not sep:
+        n += nact
+    return n
+
+
+@jit_inline
+def _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g):
+    """`switching.event_values`: positive while the state holds."""
+    n = 0
+    if mi[I_SEP] != 0:
+        g[0] = -sc[S_DELTA] if sep else sc[S_DELTA]
+        n = 1
+    if mi[I_FRIC] == FR_STICK and not sep:
+        for i in range(nact):
+            if pw[W_STK, i] != 0.0:
+                lam = abs(pw[W_F, i])
+                if mi[I_TIE] == 1:
+                    lam = min(lam, abs(pw[W_LAMEX, i]))
+                g[n] = mp[P_MU] * abs(pw[W_N, i]) - lam
+            else:
+                g[n] = dirs[act[i]] * pw[W_V, i]
+            n += 1
+    return n
+
+
+@jit
+def _param_rate(mp, mi, tdk, s_idx, y, act, nact, sep, speed):
+    """Parametric power 0.5 Theta (d km/dt) delta^2 on the table intervals at s_idx (W)."""
+    if mi[I_VARY] == 0 or sep:
+        return 0.0
+    dkm = 0.0
+    for i in range(nact):
+        dkm += tdk[_table_index(mp, mi, _pair_xi(mp, s_idx, act[i]))]
+    delta = y[1] - y[4] + y[2] + y[5]
+    return 0.5 * dkm * mp[P_RB1] * speed * delta * delta
+
+
+@jit
+def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, sep, dirs, stuck,
+         pw, sc, Sm, dy):
+    """Right-hand side of one contact state with the four energy quadratures."""
+    rb1 = mp[P_RB1]
+    s = s0 + rb1 * speed * (t - t0)
+    _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, dirs, stuck,
+              pw, sc, Sm)
+    for m in range(6):
+        dy[m] = y[6 + m]
+        dy[6 + m] = sc[S_QDD + m]
+    theta = sc[S_THETA]
+    dy[12] = torque * mp[P_IRB1] * y[8]
+    d = 0.0
+    for m in range(6):
+        d += mp[P_C + m] * y[6 + m] * y[6 + m]
+    dy[13] = d + theta * mp[P_CM] * sc[S_DDELTA] * sc[S_DDELTA]
+    pf = 0.0
+    for i in range(nact):
+        f = pw[W_F, i]
+        if f != 0.0:
+            wq = (-y[6] + pw[W_S1M, i] * mp[P_IRB1] * y[8] + y[9]
+                  + pw[W_S2M, i] * mp[P_IRB2] * y[11])
+            pf += f * wq
+    dy[14] = pf
+    if mi[I_VARY] != 0:
+        dkm = 0.0
+        for i in range(nact):
+            dkm += pw[W_DK, i]
+        dy[15] = 0.5 * theta * dkm * rb1 * speed * sc[S_DELTA] * sc[S_DELTA]
+    else:
+        dy[15] = 0.0
+
+
+@jit
+def _next_knot_dt(mp, mi, s, speed, act, nact):
+    """Time until an active pair reaches the next knot of the stiffness table (inf if none).
+
+    The piecewise-linear k(xi) has a kink at every knot; a Runge-Kutta step across one loses
+    its order, so steps end on knots (the step sequence continues: the state is C^1 there).
+    """
+    if mi[I_VARY] == 0 or mi[I_NTAB] <= 2 or speed == 0.0:
+        return np.inf
+    dx, L = mp[P_DX], mp[P_L]
+    v1 = mp[P_RB1] * speed
+    guard = 1e-9 * dx
+    best = np.inf
+    for i in range(nact):
+        xi = _pair_xi(mp, s, act[i])
+        if speed > 0.0:
+            knot = (math.floor(xi * mp[P_INVDX]) + 1.0) * dx
+            if knot - xi <= guard:
+                knot += dx
+            if knot >= L - guard:
+                continue
+        else:
+            knot = (math.ceil(xi * mp[P_INVDX]) - 1.0) * dx
+            if xi - knot <= guard:
+                knot -= dx
+            if knot <= guard:
+                continue
+        dt = (knot - xi) / v1
+        if dt < best:
+            best = dt
+    return best
+
+
+@jit
+def _settle(mp, mi, s, y, speed, act, nact, sep, dirs, stuck):
+    """`switching.settle_directions`: slip direction of slipping pairs from their velocity."""
+    if mi[I_FRIC] != FR_STICK or sep:
+        return
+    for i in range(nact):
+        j = act[i]
+        if stuck[j] == 0:
+            dirs[j] = _sgn(_pair_v(mp, mi, s, y, speed, j), dirs[j])
+
+
+@jit_inline
+def _pair_v(mp, mi, s, y, speed, j):
+    xi = _pair_xi(mp, s, j)
+    s1m = mp[P_S1A] + xi
+    s2m = mp[P_S1S2] - s1m
+    nom = speed * (mp[P_RATIO] * s2m - s1m)
+    if mi[I_SLIDE] == 1:
+        return nom - (-y[6] + s1m / mp[P_RB1] * y[8] + y[9] + s2m / mp[P_RB2] * y[11])
+    return nom + y[6] - y[9]
+
+
+@jit
+def _switch(mp, mi, tx, tk, tdk, label, s, y, torque, speed, act, nact, ist, dirs, stuck,
+            trial, pw, sc, Sm):
+    """`switching.switch`: apply event ``label`` (index into the event functions)."""
+    sep = ist[J_SEP] != 0
+    if mi[I_SEP] != 0:
+        if label == 0:
+            if not sep:
+                ist[J_SEP] = 1
+                for j in range(mi[I_NP]):
+                    stuck[j] = 0
+            else:
+                ist[J_SEP] = 0
+                _settle(mp, mi, s, y, speed, act, nact, False, dirs, stuck)
+            return
+        i = label - 1
+    else:
+        i = label
+    j = act[i]
+    if stuck[j] != 0:
+        _evaluate(mp, mi, tx, tk, tdk, s, s, y, torque, speed, act, nact, sep, dirs, stuck, pw,
+                  sc, Sm)
+        stuck[j] = 0
+        dirs[j] = _sgn(pw[W_LAMEX, i], 1.0)
+        return
+    # Eq. (14) stick test with the pair tentatively stuck
+    for jj in range(mi[I_NP]):
+        trial[jj] = stuck[jj]
+    trial[j] = 1
+    _evaluate(mp, mi, tx, tk, tdk, s, s, y, torque, speed, act, nact, sep, dirs, trial, pw, sc,
+              Sm)
+    lam = abs(pw[W_F, i])
+    lam_e = pw[W_LAMEX, i]
+    if mi[I_TIE] == 1:
+        lam = min(lam, abs(lam_e))
+    if lam <= mp[P_MU] * abs(pw[W_N, i]):
+        stuck[j] = 1
+        y[6 + 3] += _pair_v(mp, mi, s, y, speed, j)  # d v_j / d x2' = -1: v_j -> 0
+    else:
+        dirs[j] = _sgn(lam_e, 1.0)
+
+
+@jit_inline
+def _interp(R, theta, out):
+    """Continuous extension of the accepted step at fraction ``theta``."""
+    th1 = 1.0 - theta
+    for m in range(N_Y):
+        out[m] = R[0, m] + theta * (R[1, m] + th1 * (R[2, m] + theta * (R[3, m]
+                                                                         + th1 * R[4, m])))
+
+
+@jit_inline
+def _err_norm(yold, ynew, err, atol, rtol):
+    acc = 0.0
+    for m in range(N_Y):
+        sk = atol[m] + rtol * max(abs(yold[m]), abs(ynew[m]))
+        e = err[m] / sk
+        acc += e * e
+    return math.sqrt(acc / N_Y)
+
+
+@jit
+def _initial_step(mp, mi, tx, tk, tdk, t0, y, f0, s0, torque, speed, act, nact, sep, dirs,
+                  stuck, pw, sc, Sm, atol, ytmp, ftmp, t_lim):
+    """Starting step from the size of y, y' and y'' (Hairer, Norsett & Wanner, II.4)."""
+    rtol = mp[P_RTOL]
+    d0 = 0.0
+    d1 = 0.0
+    for m in range(N_Y):
+        sk = atol[m] + rtol * abs(y[m])
+        d0 += (y[m] / sk) ** 2
+        d1 += (f0[m] / sk) ** 2
+    d0 = math.sqrt(d0 / N_Y)
+    d1 = math.sqrt(d1 / N_Y)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, t_lim - t0, mp[P_MAXSTEP])
+    for m in range(N_Y):
+        ytmp[m] = y[m] + h0 * f0[m]
+    s_idx = s0 + mp[P_RB1] * speed * 0.5 * h0
+    _rhs(mp, mi, tx, tk, tdk, t0 + h0, s_idx, ytmp, t0, s0, torque, speed, act, nact, sep,
+         dirs, stuck, pw, sc, Sm, ftmp)
+    d2 = 0.0
+    for m in range(N_Y):
+        sk = atol[m] + rtol * abs(y[m])
+        d2 += ((ftmp[m] - f0[m]) / sk) ** 2
+    d2 = math.sqrt(d2 / N_Y) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** 0.2
+    return min(100.0 * h0, h1, mp[P_MAXSTEP])
+
+
+@jit
+def _events_at(mp, mi, tx, tk, tdk, t, yk, t0, s0, torque, speed, act, nact, sep, dirs,
+               stuck, pw, sc, Sm, g):
+    s = s0 + mp[P_RB1] * speed * (t - t0)
+    _evaluate(mp, mi, tx, tk, tdk, s, s, yk, torque, speed, act, nact, sep, dirs, stuck, pw,
+              sc, Sm)
+    _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
+    return sc[S_THETA] * sc[S_KM] * sc[S_DELTA]
+
+
+@jit
+def _book(mi, st, sep, stuck, dt):
+    if sep:
+        st[T_SEP] += dt
+    elif _any_stuck(mi, stuck):
+        st[T_STICK] += dt
+
+
+@jit
+def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb, K, R,
+           ytmp, ynew, g, gprev, pw, sc, Sm, out):
+    """Integrate one contact state from st[T_T] towards tb; stop at the first switch.
+
+    Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
+    """
+    eps = 2.220446049250313e-16
+    t0, s0 = st[T_T], st[T_S]
+    torque, speed = st[T_TORQUE], st[T_SPEED]
+    v1 = mp[P_RB1] * speed
+    sep = ist[J_SEP] != 0
+    rtol, maxstep, spacing = mp[P_RTOL], mp[P_MAXSTEP], mp[P_SPACING]
+    ng = _n_events(mi, nact, sep)
+    fm = _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, sep, dirs,
+                    stuck, pw, sc, Sm, gprev)
+    if fm > out[O_FMAX]:
+        out[O_FMAX] = fm
+    # A known boundary can invalidate a stick at once (the entering pair takes load, so
+    # mu f_mesh drops below the static friction): release it before integrating.
+    e0 = 1 if mi[I_SEP] != 0 else 0
+    for e in range(e0, ng):
+        if stuck[act[e - e0]] != 0 and gprev[e] < 0.0:
+            _switch(mp, mi, tx, tk, tdk, e, s0, y, torque, speed, act, nact, ist, dirs, stuck,
+                    trial, pw, sc, Sm)
+            return 1
+    t = t0
+    t_knot = t + _next_knot_dt(mp, mi, s0, speed, act, nact)
+    h = st[T_H]
+    hguess = h if h > 0.0 else 1e-7
+    s_idx = s0 + v1 * 0.5 * min(hguess, t_knot - t, tb - t)
+    _rhs(mp, mi, tx, tk, tdk, t0, s_idx, y, t0, s0, torque, speed, act, nact, sep, dirs, stuck,
+         pw, sc, Sm, K[0])
+    if not (h > 0.0):
+        h = _initial_step(mp, mi, tx, tk, tdk, t0, y, K[0], s0, torque, speed, act, nact, sep,
+                          dirs, stuck, pw, sc, Sm, atol, ytmp, ynew, min(tb, t_knot))
+    while True:
+        rejected = False
+        while True:  # attempt one step
+            hh = min(h, maxstep)
+            last = False
+            at_knot = False
+            lim = tb
+            if t_knot < tb:
+                lim = t_knot
+            if t + 1.0001 * hh >= lim:
+                hh = lim - t
+                if lim == tb:
+                    last = True
+                else:
+                    at_knot = True
+            if hh <= 16.0 * eps * max(abs(t), 1e-300) or not (hh > 0.0):
+                if at_knot and hh >= 0.0:  # rounding: the knot is already here
+                    t_knot = t + _next_knot_dt(mp, mi, s0 + v1 * (t - t0) + 1e-6 * mp[P_DX]
+                                               * (1.0 if speed > 0 else -1.0), speed, act,
+                                               nact)
+                    continue
+                out[O_TFAIL] = t
+                return -1
+            si = s0 + v1 * (t + 0.5 * hh - t0)
+            tn = lim if (last or at_knot) else t + hh
+            for stg in range(1, 7):
+                for m in range(N_Y):
+                    acc = 0.0
+                    for j in range(stg):
+                        acc += _DP_A[stg, j] * K[j, m]
+                    ytmp[m] = y[m] + hh * acc
+                ts = tn if stg >= 5 else t + _DP_C[stg] * hh
+                _rhs(mp, mi, tx, tk, tdk, ts, si, ytmp, t0, s0, torque, speed, act, nact,
+                     sep, dirs, stuck, pw, sc, Sm, K[stg])
+            for m in range(N_Y):
+                ynew[m] = ytmp[m]
+            for m in range(N_Y):
+                ytmp[m] = hh * (_E1 * K[0, m] + _E3 * K[2, m] + _E4 * K[3, m] + _E5 * K[4, m]
+                                + _E6 * K[5, m] + _E7 * K[6, m])
+            err = _err_norm(y, ynew, ytmp, atol, rtol)
+            if not math.isfinite(err):
+                err = 1e10
+            if err <= 1.0:
+                fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** -0.2)
+                if rejected:
+                    fac = min(1.0, fac)
+                if (last or at_knot) and hh < h:
+                    if fac < 1.0:  # a truncated step keeps the step size it was cut from
+                        h = hh * fac
+                else:
+                    h = hh * fac
+                break
+            h = hh * max(0.2, 0.9 * err ** -0.2)
+            rejected = True
+        out[O_NSTEPS] += 1.0
+        st[T_H] = h
+        # continuous extension
+        for m in range(N_Y):
+            dyn = ynew[m] - y[m]
+            R[0, m] = y[m]
+            R[1, m] = dyn
+            bs = hh * K[0, m] - dyn
+            R[2, m] = bs
+            R[3, m] = dyn - hh * K[6, m] - bs
+            R[4, m] = hh * (_D1 * K[0, m] + _D3 * K[2, m] + _D4 * K[3, m] + _D5 * K[4, m]
+                            + _D6 * K[5, m] + _D7 * K[6, m])
+        # scan the step for falls through zero, samples at most `spacing` apart
+        nsub = int(math.ceil(hh / spacing * (1.0 - 1e-12)))
+        if nsub < 1:
+            nsub = 1
+        hit = False
+        th_prev = 0.0
+        th_hit = 1.0
+        for ks in range(1, nsub + 1):
+            if ks == nsub and nsub == 1:
+                # the last stage (FSAL) was evaluated at the step end: reuse it
+                th = 1.0
+                _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
+                fm = sc[S_THETA] * sc[S_KM] * sc[S_DELTA]
+            else:
+                if ks == nsub:
+                    th = 1.0
+                    for m in range(N_Y):
+                        ytmp[m] = ynew[m]
+                    tk_ = tn
+                else:
+                    th = ks / nsub
+                    _interp(R, th, ytmp)
+                    tk_ = t + th * hh
+                fm = _events_at(mp, mi, tx, tk, tdk, tk_, ytmp, t0, s0, torque, speed,
+                                act, nact, sep, dirs, stuck, pw, sc, Sm, g)
+            if fm > out[O_FMAX]:
+                out[O_FMAX] = fm
+            for e in range(ng):
+                if gprev[e] > 0.0 and g[e] <= 0.0:
+                    hit = True
+                    break
+            if hit:
+                th_hit = th
+                break
+            for e in range(ng):
+                gprev[e] = g[e]
+            th_prev = th
+        if hit:
+            # Refine every falling function on the interpolant (Illinois); keep the earliest.
+            best_th = th_hit
+            best_e = -1
+            tol_th = (mp[P_TTOL] + 8.0 * eps * abs(t)) / hh
+            for e in range(ng):
+                if not (gprev[e] > 0.0 and g[e] <= 0.0):
+                    continue
+                a, ga = th_prev, gprev[e]
+                b, gb = th_hit, g[e]
+                side = 0
+                for _it in range(200):
+                    if b - a <= tol_th:
+                        break
+                    c = b - gb * (b - a) / (gb - ga)
+                    if not (a < c < b):
+                        c = 0.5 * (a + b)
+                    _interp(R, c, ytmp)
+                    _events_at(mp, mi, tx, tk, tdk, t + c * hh, ytmp, t0, s0, torque, speed,
+                               act, nact, sep, dirs, stuck, pw, sc, Sm, ynew)
+                    gc = ynew[e]
+                    if gc <= 0.0:
+                        b, gb = c, gc
+                        if side == -1:
+                            ga *= 0.5
+                        side = -1
+                    else:
+                        a, ga = c, gc
+                        if side == 1:
+                            gb *= 0.5
+                        side = 1
+                if best_e < 0 or b < best_th:
+                    best_th, best_e = b, e
+            te = t + best_th * hh
+            if best_th >= 1.0:
+                te = tn
+            _interp(R, best_th, ytmp)
+            for m in range(N_Y):
+                y[m] = ytmp[m]
+            _book(mi, st, sep, stuck, te - t0)
+            st[T_S] = s0 + v1 * (te - t0)
+            st[T_T] = te
+            _switch(mp, mi, tx, tk, tdk, best_e, st[T_S], y, torque, speed, act, nact, ist,
+                    dirs, stuck, trial, pw, sc, Sm)
+            return 1
+        for m in range(N_Y):
+            y[m] = ynew[m]
+            K[0, m] = K[6, m]
+        t = tn
+        if last:
+            _book(mi, st, sep, stuck, tb - t0)
+            st[T_S] = s0 + v1 * (tb - t0)
+            st[T_T] = tb
+            return 0
+        if at_knot:
+            # next table interval: the parametric power changes its slope there
+            t_knot = t + _next_knot_dt(mp, mi, s0 + v1 * (t - t0), speed, act, nact)
+            si = s0 + v1 * (t + 0.5 * min(h, t_knot - t, tb - t) - t0)
+            K[0, 15] = _param_rate(mp, mi, tdk, si, y, act, nact, sep, speed)
+
+@jit_inline
+def _any_stuck(mi, stuck):
+    for j in range(mi[I_NP]):
+        if stuck[j] != 0:
+            return True
+    return False
+
+
+@jit
+def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act, act, tb,
+             K, R, ytmp, ynew, g, gprev, pw, sc, Sm, out):
+    """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
+    speed, torque = st[T_SPEED], st[T_TORQUE]
+    rb1 = mp[P_RB1]
+    npairs = mi[I_NP]
+    s_mid = st[T_S] + rb1 * speed * (0.5 * (st[T_T] + tb) - st[T_T])
+    nact = _active_at(mp, mi, s_mid, act)
+    nprev = ist[J_NPREV]
+    if nprev >= 0:  # pairs that left contact are no longer stuck
+        for j in range(npairs):
+            inside = False
+            for i in range(nact):
+                if act[i] == j:
+                    inside = True
+            if not inside:
+                stuck[j] = 0
+    _settle(mp, mi, st[T_S], y, speed, act, nact, ist[J_SEP] != 0, dirs, stuck)
+    if nprev >= 0:
+        # Stored mesh energy jumps when a pair enters or leaves: book it as parametric.
+        km_before = 0.0
+        for i in range(nprev):
+            xi = _pair_xi(mp, st[T_S], prev_act[i])
+            km_before += _pair_k(mp, mi, tx, tk, tdk, xi, xi, nprev)
+        _evaluate(mp, mi, tx, tk, tdk, st[T_S], st[T_S], y, torque, speed, act, nact,
+                  ist[J_SEP] != 0, dirs, stuck, pw, sc, Sm)
+        y[15] += 0.5 * sc[S_THETA] * (sc[S_KM] - km_before) * sc[S_DELTA] ** 2
+    while st[T_T] < tb:
+        r = _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb,
+                   K, R, ytmp, ynew, g, gprev, pw, sc, Sm, out)
+        if r < 0:
+            out[O_STATUS] = STATUS_STEP
+            return
+        out[O_NEV] += r
+        if out[O_NEV] > mi[I_MAXEV]:
+            out[O_STATUS] = STATUS_EVENTS
+            out[O_TFAIL] = st[T_T]
+            return
+    for i in range(nact):
+        prev_act[i] = act[i]
+    ist[J_NPREV] = nact
+
+
+@jit
+def _advance(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act, act, t_end,
+             torque, speed, offs, kcur, K, R, ytmp, ynew, g, gprev, pw, sc, Sm, out):
+    """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
+    for i in range(N_OUT):
+        out[i] = 0.0
+    out[O_FMAX] = -np.inf
+    st[T_TORQUE] = torque
+    st[T_SPEED] = speed
+    t_start, s_start = st[T_T], st[T_S]
+    v1 = mp[P_RB1] * speed
+    pb = mp[P_PB]
+    noff = 3 if mi[I_FRIC] == FR_NOMINAL else 2
+    offs[0] = 0.0
+    offs[1] = np.fmod(mp[P_L], pb)
+    offs[2] = np.fmod(mp[P_XIP], pb)
+    s_end = s_start + v1 * (t_end - t_start)
+    fwd = speed > 0.0
+    if speed != 0.0:
+        for i in range(noff):
+            if fwd:
+                k = math.floor((s_start - offs[i]) / pb)
+                while k * pb + offs[i] <= s_start:
+                    k += 1
+            else:
+                k = math.ceil((s_start - offs[i]) / pb)
+                while k * pb + offs[i] >= s_start:
+                    k -= 1
+            kcur[i] = k
+    last_b = np.nan
+    while True:
+        tb = t_end
+        if speed != 0.0:
+            ib = -1
+            bb = 0.0
+            for i in range(noff):
+                b = kcur[i] * pb + offs[i]
+                if ib < 0 or (fwd and b < bb) or ((not fwd) and b > bb):
+                    ib, bb = i, b
+            if (fwd and bb < s_end) or ((not fwd) and bb > s_end):
+                kcur[ib] += 1 if fwd else -1
+                if bb == last_b:
+                    continue
+                last_b = bb
+                tb = t_start + (bb - s_start) / v1
+                tb = min(max(tb, st[T_T]), t_end)
+            else:
+                ib = -1
+            if ib < 0:
+                tb = t_end
+        else:
+            ib = -1
+        _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act, act, tb,
+                 K, R, ytmp, ynew, g, gprev, pw, sc, Sm, out)
+        if out[O_STATUS] != STATUS_OK:
+            return
+        if ib < 0:
+            break
+    st[T_T] = t_end
+    ist[J_NEVTOT] += int(out[O_NEV])
+
+
+@jit
+def _eval_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw, sc, Sm):
+    """Evaluate at the current state (active set of the last segment); returns nact."""
+    if ist[J_NPREV] >= 0:
+        nact = ist[J_NPREV]
+        for i in range(nact):
+            act[i] = prev_act[i]
+    else:
+        nact = _active_at(mp, mi, st[T_S], act)
+    _evaluate(mp, mi, tx, tk, tdk, st[T_S], st[T_S], y, st[T_TORQUE], st[T_SPEED], act, nact,
+              ist[J_SEP] != 0, dirs, stuck, pw, sc, Sm)
+    return nact
+
+
+@jit
+def _reset_settle(mp, mi, y, st, ist, dirs, stuck, act):
+    nact = _active_at(mp, mi, st[T_S], act)
+    _settle(mp, mi, st[T_S], y, st[T_SPEED], act, nact, ist[J_SEP] != 0, dirs, stuck)
+
+
+# -- the engine -----------------------------------------------------------------------------
+class FastEngine(Engine):
+    """numba engine implementing the `Engine` contract with the reference's physics.
+
+    Parameters
+    ----------
+    params, effects : the gear pair and the effects to include
+    rtol : relative tolerance of the Dormand-Prince 5(4) error control
+    atol : absolute tolerance (all states); default ``rtol`` times typical magnitudes
+        (1e-5 m, 1e-3 m/s, 1 J), as the reference
+    max_step : largest step (s); default half the period of the highest slip-model mode
+    n_samples, sample_spacing : every accepted step is scanned for sign changes at
+        dense-output samples at most ``sample_spacing`` apart (default
+        ``max_step / (n_samples + 1)``: the spacing of the reference's 8 interior samples on
+        its longest step); short steps are checked at their end only
+    t_tol : time tolerance (s) of the event refinement (plus 8 ulp of t)
+    max_events : bound on switches per `advance` call; more raises RuntimeError (a stall)
+    """
+
+    def __init__(self, params: GearParams | None = None, effects: Effects | None = None,
+                 rtol: float = 1e-8, atol: float | None = None, max_step: float | None = None,
+                 n_samples: int = 8, sample_spacing: float | None = None, t_tol: float = 1e-14,
+                 max_events: int = 100_000) -> None:
+        if not (1e-14 <= rtol <= 1e-2):
+            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        if not (1 <= int(n_samples) <= 1000):
+            raise ValueError(f"n_samples = {n_samples!r} is out of range; allowed [1, 1000]")
+        m = self.model = Model.build(params, effects)
+        fx, st = m.effects, m.stiff
+        self.rtol = float(rtol)
+        self.atol = _SCALE * rtol if atol is None else np.full(N_Y, float(atol))
+        if max_step is None:
+            from .modal import natural_frequencies
+
+            max_step = 0.5 / float(natural_frequencies(m, "slip")[-1])
+        self.max_step = float(max_step)
+        n = m.geom.n_pairs
+        mp = np.zeros(N_MP)
+        mp[P_MINV:P_MINV + 6] = m.minv
+        mp[P_C:P_C + 6] = m.c_diag
+        mp[P_KB:P_KB + 6] = m.kb_diag
+        g = m.geom
+        mp[P_RB1], mp[P_RB2], mp[P_RATIO], mp[P_CM], mp[P_MU] = m.rb1, m.rb2, m.ratio, m.cm, m.mu
+        mp[P_VEPS] = fx.v_eps
+        mp[P_S1A], mp[P_S1S2], mp[P_PB] = g.s1a, g.s1s2, g.base_pitch
+        mp[P_L], mp[P_PER], mp[P_XIP] = g.path_length, g.period_length, g.xi_pitch
+        mp[P_KMEAN] = st.km_mean
+        mp[P_IRB1], mp[P_IRB2], mp[P_IPER] = 1.0 / m.rb1, 1.0 / m.rb2, 1.0 / g.period_length
+        mp[P_RTOL], mp[P_MAXSTEP], mp[P_TTOL] = self.rtol, self.max_step, float(t_tol)
+        self.sample_spacing = float(self.max_step / (n_samples + 1) if sample_spacing is None
+                                    else sample_spacing)
+        mp[P_SPACING] = self.sample_spacing
+        mi = np.zeros(N_MI, dtype=np.int64)
+        mi[I_NP] = n
+        mi[I_KIND] = KIND_CONSTANT if st.kind == "constant" else KIND_TABLE
+        mi[I_VARY] = 0 if st.kind in ("constant", "rectangular") else 1
+        mi[I_SEP] = 1 if fx.separation else 0
+        mi[I_FRIC] = _FRICTION_CODE[fx.friction]
+        mi[I_SLIDE] = 1 if fx.sliding == "full" else 0
+        mi[I_TIE] = 1 if fx.stick_tie == "paper" else 0
+        mi[I_NSAMP] = int(n_samples)
+        mi[I_MAXEV] = int(max_events)
+        self._mp, self._mi = mp, mi
+        self._tx = np.ascontiguousarray(st.xi, dtype=float)
+        self._tk = np.ascontiguousarray(st.k, dtype=float)
+        self._tdk = np.diff(self._tk) / np.diff(self._tx)
+        ntab = len(self._tx)
+        mi[I_NTAB] = ntab
+        mp[P_DX] = g.path_length / (ntab - 1)
+        mp[P_INVDX] = 1.0 / mp[P_DX]
+        if np.max(np.abs(self._tx - mp[P_DX] * np.arange(ntab))) > 1e-9 * mp[P_DX]:
+            raise ValueError("FastEngine needs the stiffness table on a uniform grid from 0 "
+                             "to the path length (MeshStiffness.build makes one)")
+        # state
+        self._y = np.zeros(N_Y)
+        self._st = np.zeros(N_ST)
+        self._ist = np.zeros(N_IST, dtype=np.int64)
+        self._dirs = np.ones(n)
+        self._stuck = np.zeros(n, dtype=np.int64)
+        self._prev = np.zeros(n, dtype=np.int64)
+        self._last = None
+        # work arrays (allocated once)
+        self._trial = np.zeros(n, dtype=np.int64)
+        self._act = np.zeros(n, dtype=np.int64)
+        self._offs = np.zeros(3)
+        self._kcur = np.zeros(3, dtype=np.int64)
+        self._K = np.zeros((7, N_Y))
+        self._R = np.zeros((5, N_Y))
+        self._ytmp = np.zeros(N_Y)
+        self._ynew = np.zeros(N_Y)
+        self._g = np.zeros(n + 1)
+        self._gprev = np.zeros(n + 1)
+        self._pw = np.zeros((N_PW, n))
+        self._sc = np.zeros(N_SC)
+        self._Sm = np.zeros((n, n + 2))
+        self._out = np.zeros(N_OUT)
+        self.reset()
+
+    # -- contract ----------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return float(self._st[T_T])
+
+    def reset(self, t0: float = 0.0, torque: float = 0.0, speed: float = 0.0,
+              static: bool = True) -> None:
+        check_inputs(torque, speed)
+        m = self.model
+        self._st[:] = 0.0
+        self._st[T_T] = float(t0)
+        self._st[T_TORQUE], self._st[T_SPEED] = float(torque), float(speed)
+        self._y[:] = 0.0
+        active, _, _, _, k = m.contact(0.0)
+        if static and torque != 0.0:
+            self._y[:N_Q] = m.static_deflection(torque, float(k.sum()))
+        delta = self._y[1] - self._y[4] + self._y[2] + self._y[5]
+        self._ist[:] = 0
+        self._ist[J_SEP] = 1 if (m.effects.separation and delta < 0.0) else 0
+        self._ist[J_NPREV] = -1
+        self._dirs[:] = 1.0
+        self._stuck[:] = 0
+        self._prev[:] = 0
+        _reset_settle(self._mp, self._mi, self._y, self._st, self._ist, self._dirs, self._stuck,
+                      self._act)
+        self._last = None
+
+    def get_state(self) -> dict:
+        npv = int(self._ist[J_NPREV])
+        return {
+            "t": float(self._st[T_T]), "s": float(self._st[T_S]), "y": self._y.copy(),
+            "torque": float(self._st[T_TORQUE]), "speed": float(self._st[T_SPEED]),
+            "separated": bool(self._ist[J_SEP]), "dirs": self._dirs.copy(),
+            "stuck": self._stuck.astype(bool), "t_stick": float(self._st[T_STICK]),
+            "t_sep": float(self._st[T_SEP]), "n_events_total": int(self._ist[J_NEVTOT]),
+            "h": float(self._st[T_H]) if self._st[T_H] > 0 else None,
+            "prev_active": None if npv < 0 else [int(j) for j in self._prev[:npv]],
+            "last": self._last,
+        }
+
+    def set_state(self, state: dict) -> None:
+        self._st[T_T], self._st[T_S] = float(state["t"]), float(state["s"])
+        self._y[:] = np.asarray(state["y"], dtype=float)
+        self._st[T_TORQUE], self._st[T_SPEED] = float(state["torque"]), float(state["speed"])
+        self._ist[J_SEP] = 1 if state["separated"] else 0
+        self._dirs[:] = np.asarray(state["dirs"], dtype=float)
+        self._stuck[:] = np.asarray(state["stuck"], dtype=bool).astype(np.int64)
+        self._st[T_STICK], self._st[T_SEP] = float(state["t_stick"]), float(state["t_sep"])
+        self._ist[J_NEVTOT] = int(state["n_events_total"])
+        h = state.get("h")
+        self._st[T_H] = float(h) if h else 0.0
+        prev = state.get("prev_active")
+        if prev is None:
+            self._ist[J_NPREV] = -1
+        else:
+            self._ist[J_NPREV] = len(prev)
+            self._prev[:len(prev)] = np.asarray(prev, dtype=np.int64)
+        self._last = state.get("last")
+
+    def advance(self, t_end: float, torque: float, speed: float) -> StepSummary:
+        check_inputs(torque, speed)
+        t_start = self.time
+        if not (t_end > t_start):
+            raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
+        t_stick0, t_sep0 = self._st[T_STICK], self._st[T_SEP]
+        out = self._out
+        _advance(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk, self._y,
+                 self._st, self._ist, self._dirs, self._stuck, self._trial, self._prev,
+                 self._act, float(t_end), float(torque), float(speed), self._offs, self._kcur,
+                 self._K, self._R, self._ytmp, self._ynew, self._g, self._gprev, self._pw,
+                 self._sc, self._Sm, out)
+        status = int(out[O_STATUS])
+        if status == STATUS_EVENTS:
+            raise RuntimeError(
+                f"more than {int(self._mi[I_MAXEV])} contact switches in one step "
+                f"(t = {out[O_TFAIL]:.9g} s): the run stalls; see README 'Limits'")
+        if status == STATUS_STEP:
+            raise ArithmeticError(
+                f"Dormand-Prince step size underflow at t = {out[O_TFAIL]:.9g} s")
+        h = t_end - t_start
+        o = self.outputs()
+        self._last = (t_start, float(t_end))
+        return StepSummary(t_start, float(t_end), (self._st[T_STICK] - t_stick0) / h,
+                           (self._st[T_SEP] - t_sep0) / h, max(float(out[O_FMAX]), o.mesh_force),
+                           int(out[O_NEV]), int(out[O_NSTEPS]))
+
+    # -- outputs -----------------------------------------------------------------------------
+    def _now(self) -> int:
+        return int(_eval_now(self._mp, self._mi, self._tx, self._tk, self._tdk, self._y,
+                             self._st, self._ist, self._dirs, self._stuck, self._prev,
+                             self._act, self._pw, self._sc, self._Sm))
+
+    def outputs(self) -> Outputs:
+        p, geo = self.model.p, self.model.geom
+        nact = self._now()
+        pw, sc, y = self._pw, self._sc, self._y
+        theta, km, delta = sc[S_THETA], sc[S_KM], sc[S_DELTA]
+        mesh = float(theta * km * delta)
+        if self._ist[J_SEP]:
+            state = CONTACT_SEPARATED
+        elif any(self._stuck[self._act[i]] for i in range(nact)):
+            state = CONTACT_STICK
+        else:
+            state = CONTACT_SLIP
+        damp = theta * p.cm * sc[S_DDELTA]
+        fr = pw[W_F, :nact]
+        reaction = p.rb1 * (mesh + damp) - float(fr @ pw[W_S1M, :nact])
+        i_near = int(np.argmin(np.abs(pw[W_XI, :nact] - geo.xi_pitch))) if nact else 0
+        speed = float(self._st[T_SPEED])
+        return Outputs(
+            time=self.time,
+            dte=float(delta),
+            mesh_force=mesh,
+            friction_force=float(fr.sum()),
+            contact_state=state,
+            output_torque=float(-p.rb2 * (p.kr2 * y[U2] + p.cr2 * y[N_Q + U2])),
+            input_torque_reaction=float(reaction),
+            gear1_speed=float(speed + y[N_Q + U1] / p.rb1),
+            gear2_speed=float(speed * p.ratio - y[N_Q + U2] / p.rb2),
+            sliding_velocity=float(pw[W_V, i_near]) if nact else 0.0,
+        )
+
+    def energy(self) -> dict:
+        """Stored energy and the integrated power terms so far (J), as the reference."""
+        m = self.model
+        self._now()
+        sc, y = self._sc, self._y
+        q, qd = y[:N_Q], y[N_Q:2 * N_Q]
+        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q \
+            + 0.5 * sc[S_THETA] * sc[S_KM] * sc[S_DELTA] ** 2
+        return {"stored": float(stored), "input": float(y[12]), "damping": float(y[13]),
+                "friction": float(y[14]), "parametric": float(y[15])}
+
+    @property
+    def stick_time(self) -> float:
+        """Time spent with a pair stuck since reset (s)."""
+        return float(self._st[T_STICK])
+
+    @property
+    def separation_time(self) -> float:
+        """Time spent with the teeth apart since reset (s)."""
+        return float(self._st[T_SEP])

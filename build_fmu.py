@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent
 SCRIPT = ROOT / "fmu_src" / "GearPair.py"
 PACKAGE = ROOT / "model" / "gearpair"
-REQUIREMENTS = "numpy>=1.24\nscipy>=1.10\n"
+REQUIREMENTS = "numpy>=1.24\nscipy>=1.10\nnumba>=0.59\n"
 
 # Units: name -> SI base-unit exponents (FMI 2.0 BaseUnit attributes).
 UNITS: dict[str, dict[str, int]] = {
@@ -236,7 +236,7 @@ its communication point with the inputs then set.</li>
 <li>Variable communication step sizes, <code>fmi2GetFMUstate</code>/<code>fmi2SetFMUstate</code>
 and state serialization are supported; a serialized state can be restored into a fresh
 instance of this FMU.</li>
-<li>The FMU runs Python code (pythonfmu). It needs Python 3 with numpy and scipy
+<li>The FMU runs Python code (pythonfmu). It needs Python 3 with numpy, scipy and numba
 (<code>resources/requirements.txt</code>; <code>pythonfmu deploy -f GearPair.fmu</code>
 installs them). Python hosts (fmpy, libcosimpy, ecospy) use their own interpreter; other
 hosts on Linux need <code>LD_PRELOAD</code> set to the libpython of that interpreter.</li>

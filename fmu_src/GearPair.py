@@ -36,8 +36,10 @@ CHOICES: dict[str, tuple[str, tuple[str, ...]]] = {
     "friction_law": ("friction", ("off", "nominal", "regularized", "stick_slip")),
     "sliding": ("sliding", ("paper", "full")),
     "stick_tie": ("stick_tie", ("exact", "paper")),
+    "engine": ("engine", ("fast", "reference")),
 }
-CHOICE_DEFAULTS = {"stiffness_model": 0, "friction_law": 3, "sliding": 0, "stick_tie": 0}
+CHOICE_DEFAULTS = {"stiffness_model": 0, "friction_law": 3, "sliding": 0, "stick_tie": 0,
+                   "engine": 0}
 CHOICE_DOCS = {
     "stiffness_model": "mesh stiffness law per tooth pair",
     "friction_law": "tooth friction law",
@@ -45,6 +47,8 @@ CHOICE_DOCS = {
     "rotational vibration (full)",
     "stick_tie": "how stuck surfaces move together: v = 0 held exactly (exact) or "
     "Eqs. (19)-(21) (paper)",
+    "engine": "integrator: numba-compiled (fast; falls back to reference without numba) "
+    "or the scipy yardstick (reference)",
 }
 
 # Display units chosen for parameters by their unit.
@@ -146,7 +150,7 @@ def interface(gp=None) -> list[dict[str, Any]]:
             row["min"], row["max"], row["default"], doc)
 
     for name in ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
-                 "stick_tie"):
+                 "stick_tie", "engine"):
         if name == "separation":
             add(name, "Boolean", "parameter", "fixed", start=True,
                 description="tooth separation, Eq. (8): mesh force and mesh damping vanish "
@@ -265,11 +269,18 @@ class GearPair(Fmi2Slave):
             choice[field_name] = codes[int(code)]
         params_mod.check_range("v_eps", self.v_eps, {"unit": "m/s", "min": 1e-9, "max": 1.0})
         params_mod.check_range("rtol", self.rtol, {"unit": "", "min": 1e-12, "max": 1e-3})
+        engine = choice.pop("engine")
         effects = effects_mod.Effects(
             stiffness=effects_mod.StiffnessSpec(kind=choice.pop("stiffness")),
             separation=bool(self.separation), v_eps=float(self.v_eps), **choice)
         make = getattr(gp, "make_engine", None)
         if make is not None:
+            if engine == "fast":
+                try:
+                    return make(params, effects, engine="fast", rtol=float(self.rtol))
+                except ImportError as exc:  # numba missing in this host's Python
+                    self.log(f"engine fast unavailable ({exc}); using engine reference",
+                             Fmi2Status.warning)
             return make(params, effects, engine="reference", rtol=float(self.rtol))
         reference = importlib.import_module(gp.__name__ + ".reference")
         return reference.ReferenceEngine(params, effects, rtol=float(self.rtol))

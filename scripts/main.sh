@@ -5,7 +5,7 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 .venv/bin/python build_fmu.py
 mkdir -p out
-.venv/bin/fmpy simulate dist/GearPair.fmu --stop-time "${STOP_TIME:-0.05}" \
+.venv/bin/fmpy simulate dist/GearPair.fmu --stop-time "${STOP_TIME:-0.5}" \
     --output-interval 1e-4 --output-file out/default_run.csv
 .venv/bin/python - <<'PY'
 import numpy as np

@@ -328,3 +328,20 @@ def test_reference_state_round_trip_and_reset_are_clean():
     a.advance(2e-3, TR, 100 * RPM)
     c.advance(2e-3, TR, 100 * RPM)
     assert a.outputs() == c.outputs() and a.energy() == c.energy()
+
+
+def test_no_crossing_is_lost_inside_a_step():
+    """Denser sampling of each step and a 4x smaller step bound find the same switches."""
+    def run(**opts):
+        e = ReferenceEngine(P, Effects(stiffness="rectangular"), rtol=1e-7, **opts)
+        e.reset(0.0, TR, 100 * RPM)
+        stick = 0.0
+        for k in range(1, 31):
+            stick += e.advance(k * 1e-3, TR, 100 * RPM).stick_fraction * 1e-3
+        return e.n_events_total, stick
+
+    base = run()
+    dense = run(n_samples=32, max_step=ReferenceEngine(P, Effects(
+        stiffness="rectangular")).max_step / 4)
+    assert base[0] == dense[0] > 0
+    assert base[1] == pytest.approx(dense[1], abs=1e-9)

@@ -15,11 +15,14 @@ FrictionLaw = Literal["off", "nominal", "regularized", "stick_slip"]
 StiffnessKind = Literal["potential_energy", "constant", "rectangular", "table"]
 Sliding = Literal["paper", "full"]
 StickTie = Literal["exact", "paper"]
+Dof = Literal["full", "torsional"]
 
 _FRICTION = ("off", "nominal", "regularized", "stick_slip")
 _STIFFNESS = ("potential_energy", "constant", "rectangular", "table")
 _SLIDING = ("paper", "full")
 _TIE = ("exact", "paper")
+_DOF = ("full", "torsional")
+BACKLASH_MAX = 1e-3  # m; a clearance beyond a millimetre is a broken gearbox, not a scene
 
 
 def _one_of(name: str, value: str, allowed: tuple[str, ...]) -> None:
@@ -89,6 +92,15 @@ class Effects:
     stick_tie : {"exact", "paper"}
         How the stuck surfaces move together: ``exact`` holds v_j = 0 (includes the rate of
         change of the nominal sliding velocity); ``paper`` is Eqs. (19)-(21) (x2'' = x1'').
+    backlash : float or None
+        Total clearance along the line of action (m) between the drive flanks and the back
+        flanks (beyond the paper). ``None``: no back flank (the paper: for delta < 0 the
+        teeth are free). A value b: back-flank contact for delta < -b with the same mesh
+        stiffness law and damping, so torque reversal and coasting stay bounded. Needs
+        ``separation=True``. Friction acts on the drive flanks only.
+    dof : {"full", "torsional"}
+        ``full``: the 6-DOF model of Eq. (5). ``torsional``: rigid supports, only u1 and u2
+        are integrated (x1 = y1 = x2 = y2 = 0); friction then acts through its moments only.
     """
 
     stiffness: StiffnessSpec = field(default_factory=StiffnessSpec)
@@ -97,6 +109,8 @@ class Effects:
     v_eps: float = 1e-4
     sliding: Sliding = "paper"
     stick_tie: StickTie = "exact"
+    backlash: float | None = None
+    dof: Dof = "full"
 
     def __post_init__(self) -> None:
         if isinstance(self.stiffness, str):  # convenience: Effects(stiffness="constant")
@@ -110,9 +124,20 @@ class Effects:
             raise ValueError(f"separation must be true or false, got {self.separation!r}")
         if not (math.isfinite(self.v_eps) and 1e-9 <= self.v_eps <= 1.0):
             raise ValueError(f"v_eps = {self.v_eps!r} is out of range; allowed [1e-09, 1] m/s")
+        _one_of("dof", self.dof, _DOF)
+        if self.backlash is not None:
+            b = self.backlash
+            if isinstance(b, bool) or not isinstance(b, (int, float)) or not math.isfinite(b) \
+                    or not 0.0 < b <= BACKLASH_MAX:
+                raise ValueError(f"backlash = {b!r} is out of range; allowed (0, {BACKLASH_MAX:g}]"
+                                 " m, or None for no back flank")
+            if not self.separation:
+                raise ValueError("backlash needs separation = true (a back flank only matters "
+                                 "once the drive flanks can separate)")
 
 
 FRICTION_LAWS = _FRICTION
 STIFFNESS_KINDS = _STIFFNESS
 SLIDING_VARIANTS = _SLIDING
 STICK_TIES = _TIE
+DOFS = _DOF

@@ -56,6 +56,9 @@ class Model:
     def build(cls, p: GearParams | None = None, effects: Effects | None = None) -> Model:
         p = p or GearParams()
         effects = effects or Effects()
+        if effects.backlash is not None or effects.dof != "full":
+            # TODO(#5): engines support for back flanks and the torsional reduction
+            raise ValueError("backlash and dof='torsional' are not supported by the engines yet")
         geom = Geometry.from_params(p)
         stiff = MeshStiffness.build(p, geom, effects.stiffness)
         mdiag = np.array([p.m1, p.m1, p.mu1, p.m2, p.m2, p.mu2])

@@ -37,9 +37,10 @@ CHOICES: dict[str, tuple[str, tuple[str, ...]]] = {
     "sliding": ("sliding", ("paper", "full")),
     "stick_tie": ("stick_tie", ("exact", "paper")),
     "engine": ("engine", ("fast", "reference")),
+    "dof": ("dof", ("full", "torsional")),
 }
 CHOICE_DEFAULTS = {"stiffness_model": 0, "friction_law": 3, "sliding": 0, "stick_tie": 0,
-                   "engine": 0}
+                   "engine": 0, "dof": 0}
 CHOICE_DOCS = {
     "stiffness_model": "mesh stiffness law per tooth pair",
     "friction_law": "tooth friction law",
@@ -49,7 +50,10 @@ CHOICE_DOCS = {
     "Eqs. (19)-(21) (paper)",
     "engine": "integrator: numba-compiled (fast; falls back to reference without numba) "
     "or the scipy yardstick (reference)",
+    "dof": "degrees of freedom: the 6-DOF model (full) or u1, u2 only with rigid supports "
+    "(torsional; with friction_law 3 it needs sliding 1)",
 }
+BACKLASH_MAX = 1e-3  # m, as gearpair.effects.BACKLASH_MAX
 
 # Display units chosen for parameters by their unit.
 _PARAM_DISPLAY_UNIT = {"rad": "deg", "m": "mm"}
@@ -63,8 +67,9 @@ OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | Non
      "elastic mesh force km*Theta(delta)*delta, Eq. (16)"),
     ("friction_force", "Real", "N", None, None, None,
      "total tangential tooth force (sliding or static friction), sum over the pairs"),
-    ("contact_state", "Integer", None, None, 0, 2,
-     "contact state at the end of the step: 0 separated, 1 slip, 2 stick (any pair stuck)"),
+    ("contact_state", "Integer", None, None, 0, 3,
+     "contact state at the end of the step: 0 separated, 1 slip, 2 stick (any pair stuck), "
+     "3 back flanks in contact (backlash > 0)"),
     ("output_torque", "Real", "N.m", None, None, None,
      "torque delivered to the gear 2 shaft"),
     ("input_torque_reaction", "Real", "N.m", None, None, None,
@@ -150,8 +155,13 @@ def interface(gp=None) -> list[dict[str, Any]]:
             row["min"], row["max"], row["default"], doc)
 
     for name in ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
-                 "stick_tie", "engine"):
-        if name == "separation":
+                 "stick_tie", "engine", "backlash", "dof"):
+        if name == "backlash":
+            add(name, "Real", "parameter", "fixed", "m", "um", 0.0, BACKLASH_MAX, 0.0,
+                "clearance between drive and back flanks along the line of action; 0: no back "
+                "flank (the paper). > 0 catches torque reversal on the back flanks (needs "
+                "separation true)")
+        elif name == "separation":
             add(name, "Boolean", "parameter", "fixed", start=True,
                 description="tooth separation, Eq. (8): mesh force and mesh damping vanish "
                 "when the teeth part (false: the mesh spring also pulls)")
@@ -269,10 +279,13 @@ class GearPair(Fmi2Slave):
             choice[field_name] = codes[int(code)]
         params_mod.check_range("v_eps", self.v_eps, {"unit": "m/s", "min": 1e-9, "max": 1.0})
         params_mod.check_range("rtol", self.rtol, {"unit": "", "min": 1e-12, "max": 1e-3})
+        params_mod.check_range("backlash", self.backlash,
+                               {"unit": "m", "min": 0.0, "max": BACKLASH_MAX})
         engine = choice.pop("engine")
         effects = effects_mod.Effects(
             stiffness=effects_mod.StiffnessSpec(kind=choice.pop("stiffness")),
-            separation=bool(self.separation), v_eps=float(self.v_eps), **choice)
+            separation=bool(self.separation), v_eps=float(self.v_eps),
+            backlash=float(self.backlash) if self.backlash > 0.0 else None, **choice)
         make = getattr(gp, "make_engine", None)
         if make is not None:
             if engine == "fast":
@@ -311,7 +324,7 @@ class GearPair(Fmi2Slave):
         self.contact_state = int(o.contact_state)
         if summary is None:  # no step yet: the figures describe the instant t0
             self.stick_fraction = 1.0 if self.contact_state == 2 else 0.0
-            self.separation_fraction = 1.0 if self.contact_state == 0 else 0.0
+            self.separation_fraction = 1.0 if self.contact_state in (0, 3) else 0.0
             self.mesh_force_max = self.mesh_force
             self.n_events = 0
         else:

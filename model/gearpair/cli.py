@@ -1,6 +1,8 @@
 """`gearpair` command line: thin wrappers over the core.
 
 gearpair modes [--json]
+gearpair simulate SCENE.toml [--engine fast|fmu|reference] [--out run.csv] [--plot run.png]
+                  [--json] [--t-end S]
 gearpair simulate [--json] [--out run.csv] [--t-end S] [--speed-rpm N] [--torque NM] ...
 """
 
@@ -9,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 
 import numpy as np
 
@@ -47,34 +50,92 @@ def _effects(args) -> Effects:
     )
 
 
-def _simulate(args) -> int:
-    from .results import simulate
+# Flags that describe the run itself: without a scene file only (a scene says all of it).
+_RUN_FLAGS = {"dt": 1e-4, "steady_from": 0.5, "torque": OperatingPoint().torque,
+              "speed_rpm": OperatingPoint().speed / RPM, "mu": GearParams().mu, "rtol": 1e-7,
+              "stiffness": "potential_energy", "friction": "stick_slip", "sliding": "paper",
+              "stick_tie": "exact", "no_separation": False}
 
+
+def _scene_from_flags(args):
+    """The flag-based run as a scene: constant inputs, Table 1 data with ``--mu``."""
+    from .scenes import Constant, Inputs, OutputSpec, Scene, Solver
+
+    for k, v in _RUN_FLAGS.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
+    t_end = 0.2 if args.t_end is None else args.t_end
+    if not (t_end > 0 and args.dt > 0):
+        raise ValueError(f"--t-end = {t_end!r} and --dt = {args.dt!r} must be > 0 s")
     op = OperatingPoint(torque=args.torque, speed=args.speed_rpm * RPM)
-    params = GearParams(mu=args.mu)
-    traj = simulate(params, _effects(args), t_end=args.t_end, torque=op.torque,
-                    speed=op.speed, dt=args.dt, engine=args.engine, rtol=args.rtol)
-    t_from = args.t_end * args.steady_from
-    summ = traj.summary(t_from)
-    summ["engine"] = args.engine
-    summ["torque_nm"] = op.torque
-    summ["speed_rpm"] = args.speed_rpm
+    scene = Scene(
+        name="command line", params=GearParams(mu=args.mu), effects=_effects(args),
+        inputs=Inputs(torque=Constant(op.torque), speed=Constant(op.speed)),
+        solver=Solver(engine=args.engine or "reference", rtol=args.rtol),
+        outputs=OutputSpec(interval=args.dt), t_end=t_end)
+    # the window as a fraction of t_end, kept even past the end (then the summary says so)
+    return scene, t_end * args.steady_from, {"torque_nm": op.torque, "speed_rpm": args.speed_rpm}
+
+
+def _scene_from_file(args):
+    from .scenes import load_scene
+
+    given = [k for k in _RUN_FLAGS if getattr(args, k) not in (None, False)]
+    if given:
+        flags = ", ".join("--" + k.replace("_", "-") for k in given)
+        raise ValueError(f"{flags}: set this in the scene file; with a scene only --engine, "
+                         "--t-end, --out, --plot and --json apply")
+    scene = load_scene(args.scene)
+    if args.t_end is not None:
+        scene = scene.with_t_end(args.t_end)
+    return scene, scene.t_from, {"scene_file": str(args.scene)}
+
+
+def _simulate(args) -> int:
+    scene, t_from, extra = (_scene_from_file if args.scene else _scene_from_flags)(args)
+    engine = args.engine or scene.solver.engine
+    wall0 = time.perf_counter()
+    try:
+        traj = scene.run(engine)
+    except (RuntimeError, ImportError) as exc:  # a failed run or a missing extra, not bad input
+        print(f"gearpair: error: {exc}", file=sys.stderr)
+        return 1
+    wall = time.perf_counter() - wall0
+    summ = {"scene": scene.name, "engine": engine, "t_end": scene.t_end, **extra,
+            **traj.summary(t_from)}
     summ["events"] = int(np.sum(traj["n_events"]))
+    summ["wall_time_s"] = wall
+    summ["wall_time_per_simulated_s"] = wall / scene.t_end
     if args.out:
-        traj.to_csv(args.out)
+        traj.to_csv(args.out, scene.outputs.names if args.scene else None)
         summ["out"] = args.out
+    if args.plot:
+        try:
+            traj.plot(args.plot, title=f"{scene.name} ({engine} engine)")
+        except ImportError as exc:
+            print(f"gearpair: error: {exc}", file=sys.stderr)
+            return 1
+        summ["plot"] = args.plot
     if args.json:
         print(json.dumps(summ, indent=2))
         return 0
-    f = summ["mesh_force_n"]
-    print(f"gear pair at {args.speed_rpm:g} r/min, {op.torque:g} N.m, engine {args.engine}, "
-          f"steady window {t_from:g}-{args.t_end:g} s")
+    f, d = summ["mesh_force_n"], summ["dte_m"]
+    if args.scene:
+        print(f"scene {scene.name} ({args.scene}), engine {engine}, 0-{scene.t_end:g} s, "
+              f"steady window {t_from:g}-{scene.t_end:g} s")
+    else:
+        print(f"gear pair at {args.speed_rpm:g} r/min, {extra['torque_nm']:g} N.m, engine "
+              f"{engine}, steady window {t_from:g}-{scene.t_end:g} s")
     print(f"  stick ratio          {summ['stick_ratio']:.4f}")
     print(f"  contact-loss ratio   {summ['contact_loss_ratio']:.4f}")
     print(f"  mesh force (kN)      min {f['min'] / 1e3:.2f}  mean {f['mean'] / 1e3:.2f}  "
           f"max {f['max'] / 1e3:.2f}")
-    if args.out:
-        print(f"  written {args.out}")
+    print(f"  DTE (um)             mean {d['mean'] * 1e6:.3f}  peak-to-peak "
+          f"{d['peak_to_peak'] * 1e6:.3f}")
+    print(f"  wall time            {wall:.2f} s ({wall / scene.t_end:.2f} s per simulated s)")
+    for key in ("out", "plot"):
+        if key in summ:
+            print(f"  written {summ[key]}")
     return 0
 
 
@@ -83,30 +144,48 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="cmd", required=True)
     m = sub.add_parser("modes", help="natural frequencies and mode shapes (Figs. 5-6)")
     m.add_argument("--json", action="store_true")
-    s = sub.add_parser("simulate", help="run the default operating point and summarize")
-    s.add_argument("--json", action="store_true")
-    s.add_argument("--out", help="write the trajectory as CSV")
-    s.add_argument("--t-end", type=float, default=0.2, help="simulated time (s)")
-    s.add_argument("--dt", type=float, default=1e-4, help="output interval (s)")
-    s.add_argument("--steady-from", type=float, default=0.5,
-                   help="start of the steady window as a fraction of t-end")
-    s.add_argument("--torque", type=float, default=OperatingPoint().torque, help="N.m")
-    s.add_argument("--speed-rpm", type=float, default=OperatingPoint().speed / RPM)
-    s.add_argument("--mu", type=float, default=GearParams().mu)
-    s.add_argument("--engine", default="reference")
-    s.add_argument("--rtol", type=float, default=1e-7)
-    s.add_argument("--stiffness", default="potential_energy")
-    s.add_argument("--friction", default="stick_slip")
-    s.add_argument("--sliding", default="paper")
-    s.add_argument("--stick-tie", default="exact")
-    s.add_argument("--no-separation", action="store_true")
+    s = sub.add_parser("simulate", help="run a scene file (or one operating point given by "
+                       "flags) and summarize")
+    s.add_argument("scene", nargs="?", help="scene file (TOML, docs/scenes.md); without it "
+                   "the flags below describe the run")
+    s.add_argument("--json", action="store_true", help="print the summary as JSON")
+    s.add_argument("--out", help="write the trajectory as CSV (units in the header)")
+    s.add_argument("--plot", help="draw DTE, mesh force, friction and contact state (e.g. "
+                   "run.png; needs matplotlib)")
+    s.add_argument("--engine", choices=("fast", "reference", "fmu"),
+                   help="default: the scene's [solver] engine; reference without a scene")
+    s.add_argument("--t-end", type=float, help="simulated time (s); overrides the scene's "
+                   "(default 0.2 without a scene)")
+    d = _RUN_FLAGS
+    run = s.add_argument_group("run without a scene file")
+    run.add_argument("--dt", type=float, help=f"output interval (s), default {d['dt']:g}")
+    run.add_argument("--steady-from", type=float, help="start of the steady window as a "
+                     f"fraction of t-end, default {d['steady_from']:g}")
+    run.add_argument("--torque", type=float, help=f"N.m, default {d['torque']:g}")
+    run.add_argument("--speed-rpm", type=float, help=f"default {d['speed_rpm']:g}")
+    run.add_argument("--mu", type=float, help=f"default {d['mu']:g}")
+    run.add_argument("--rtol", type=float, help=f"default {d['rtol']:g}")
+    run.add_argument("--stiffness", help=f"default {d['stiffness']}")
+    run.add_argument("--friction", help=f"default {d['friction']}")
+    run.add_argument("--sliding", help=f"default {d['sliding']}")
+    run.add_argument("--stick-tie", help=f"default {d['stick_tie']}")
+    run.add_argument("--no-separation", action="store_true", default=None)
+    from .sweep import add_parser as add_sweep_parser  # argparse only; dask loads on use
+
+    add_sweep_parser(sub)
     return ap
+
+
+def _sweep(args) -> int:
+    from .sweep import main as sweep_main
+
+    return sweep_main(args)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return {"modes": _modes, "simulate": _simulate}[args.cmd](args)
+        return {"modes": _modes, "simulate": _simulate, "sweep": _sweep}[args.cmd](args)
     except ValueError as exc:
         print(f"gearpair: error: {exc}", file=sys.stderr)
         return 2

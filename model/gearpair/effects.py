@@ -125,6 +125,10 @@ class Effects:
         if not (math.isfinite(self.v_eps) and 1e-9 <= self.v_eps <= 1.0):
             raise ValueError(f"v_eps = {self.v_eps!r} is out of range; allowed [1e-09, 1] m/s")
         _one_of("dof", self.dof, _DOF)
+        if self.dof == "torsional" and self.friction == "stick_slip" and self.sliding == "paper":
+            raise ValueError("dof = 'torsional' with friction = 'stick_slip' needs sliding = "
+                             "'full': the paper's sliding velocity (Eq. 12) moves only with "
+                             "x1 - x2, which rigid supports hold still, so no stick can form")
         if self.backlash is not None:
             b = self.backlash
             if isinstance(b, bool) or not isinstance(b, (int, float)) or not math.isfinite(b) \

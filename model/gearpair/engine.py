@@ -18,6 +18,7 @@ import numpy as np
 CONTACT_SEPARATED = 0
 CONTACT_SLIP = 1
 CONTACT_STICK = 2
+CONTACT_BACK = 3  # back flanks in contact (Effects.backlash)
 
 
 @dataclass(frozen=True)
@@ -28,9 +29,10 @@ class Outputs:
     ----------
     time : s
     dte : m, mesh deflection delta = g . q along the line of action (Eq. (3))
-    mesh_force : N, elastic mesh force km Theta(delta) delta (Eq. (16))
+    mesh_force : N, elastic mesh force km Theta(delta) delta (Eq. (16)); on the back flank
+        km (delta + b) < 0
     friction_force : N, total tangential tooth force (sliding or static), sum over pairs
-    contact_state : 0 separated, 1 slip, 2 stick (any pair stuck)
+    contact_state : 0 separated, 1 slip, 2 stick (any pair stuck), 3 back flank in contact
     output_torque : N.m, torque delivered to the gear 2 shaft, -rb2 (kr2 u2 + cr2 u2')
     input_torque_reaction : N.m, torque the mesh exerts back on gear 1 about its axis
     gear1_speed, gear2_speed : rad/s, absolute shaft speeds (nominal + vibration)

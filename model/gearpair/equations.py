@@ -9,6 +9,7 @@ Nothing here decides *when* the state switches (see `switching`) or *how* a step
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,9 +57,6 @@ class Model:
     def build(cls, p: GearParams | None = None, effects: Effects | None = None) -> Model:
         p = p or GearParams()
         effects = effects or Effects()
-        if effects.backlash is not None or effects.dof != "full":
-            # TODO(#5): engines support for back flanks and the torsional reduction
-            raise ValueError("backlash and dof='torsional' are not supported by the engines yet")
         geom = Geometry.from_params(p)
         stiff = MeshStiffness.build(p, geom, effects.stiffness)
         mdiag = np.array([p.m1, p.m1, p.mu1, p.m2, p.m2, p.mu2])
@@ -67,6 +65,31 @@ class Model:
         C = np.diag([p.cb1, p.cb1, 0.0, p.cb2, p.cb2, p.cr2])
         return cls(p, effects, geom, stiff, M, C, Kb, 1.0 / mdiag, np.diag(C).copy(),
                    np.diag(Kb).copy(), p.rb1, p.rb2, p.ratio, p.cm, p.mu)
+
+    @property
+    def backlash(self) -> float:
+        """Back-flank clearance along the line of action (m); inf without a back flank."""
+        b = self.effects.backlash
+        return math.inf if b is None else float(b)
+
+    @property
+    def torsional(self) -> bool:
+        """Only u1, u2 are integrated (rigid supports)."""
+        return self.effects.dof == "torsional"
+
+    @property
+    def free_dofs(self) -> np.ndarray:
+        """Indices of the integrated coordinates in q (all six, or u1 and u2)."""
+        return np.array([U1, U2]) if self.torsional else np.arange(6)
+
+    @property
+    def minv_free(self) -> np.ndarray:
+        """Diagonal of M^-1 with zeros on the coordinates that are not integrated."""
+        if not self.torsional:
+            return self.minv
+        out = np.zeros(6)
+        out[[U1, U2]] = self.minv[[U1, U2]]
+        return out
 
     # -- Eq. (10) ----------------------------------------------------------------------------
     def load(self, torque: float) -> np.ndarray:
@@ -144,9 +167,27 @@ class Model:
 
     def static_deflection(self, torque: float, km: float) -> np.ndarray:
         """Static equilibrium q (m) under ``torque`` with mesh stiffness ``km`` and no
-        friction: (Kb + km g g^T) q = Ft. Gives delta = Tr/(rb1 km) (Eqs. (4), (6))."""
-        K = self.Kb + km * np.outer(G, G)
-        return np.linalg.solve(K, self.load(torque))
+        friction: (Kb + km g g^T) q = Ft. Gives delta = Tr/(rb1 km) (Eqs. (4), (6)).
+
+        A negative torque with a back flank rests on it: (Kb + km g g^T) q = Ft - km b g,
+        delta = Tr/(rb1 km) - b. Without a back flank the drive-flank solution is returned
+        (delta < 0: the teeth start apart). Torsional: x and y stay zero.
+        """
+        f = self.load(torque)
+        if torque < 0.0 and math.isfinite(self.backlash):
+            f = f - km * self.backlash * G
+        free = self.free_dofs
+        K = (self.Kb + km * np.outer(G, G))[np.ix_(free, free)]
+        q = np.zeros(6)
+        q[free] = np.linalg.solve(K, f[free])
+        return q
+
+    def contact_code(self, delta: float) -> int:
+        """Contact state of deflection ``delta`` (m) at rest: 0 drive flank, 1 apart,
+        2 back flank (see `switching.Mode`)."""
+        if delta >= 0.0 or not self.effects.separation:
+            return 0
+        return 2 if delta < -self.backlash else 1
 
 
 @dataclass
@@ -155,6 +196,8 @@ class Eval:
 
     qdd: np.ndarray        # accelerations (m/s^2)
     delta: float           # mesh deflection (m), Eq. (3)
+    compression: float     # compressed deflection: delta (drive flank), delta + b (back
+                           # flank, < 0), 0 apart (m); the mesh force is km * compression
     ddelta: float          # its rate (m/s)
     km: float              # total mesh stiffness of the pairs in contact (N/m)
     theta: float           # 1 in contact, 0 apart, Eq. (8)
@@ -166,6 +209,11 @@ class Eval:
     k: np.ndarray          # per-pair stiffness (N/m)
     xi: np.ndarray         # positions from A (m)
     lam_exact: np.ndarray  # static friction of stuck pairs with the exact tie (N)
+
+    @property
+    def mesh_force(self) -> float:
+        """Elastic mesh force along the line of action (N), Eq. (16); < 0 on the back flank."""
+        return self.km * self.compression
 
 
 def friction_law_forces(model: Model, normal, v, nominal, dirs) -> np.ndarray:
@@ -190,13 +238,14 @@ def static_friction(model: Model, F: np.ndarray, w: np.ndarray, a: np.ndarray,
     equivalent to Eqs. (20)-(25) (tested against them). With M diagonal this is the Schur
     complement  (A M^-1 W^T) lambda = -(c + A M^-1 F).
     """
-    S = (a * model.minv) @ w.T
-    return np.linalg.solve(S, -(c + (a * model.minv) @ F))
+    minv = model.minv_free
+    S = (a * minv) @ w.T
+    return np.linalg.solve(S, -(c + (a * minv) @ F))
 
 
 def evaluate(model: Model, s: float, q: np.ndarray, qd: np.ndarray, torque: float,
              speed: float, active: np.ndarray, separated: bool, dirs: np.ndarray,
-             stuck: np.ndarray) -> Eval:
+             stuck: np.ndarray, back: bool = False) -> Eval:
     """Accelerations and forces for one contact state, Eqs. (1)-(4) and (20)-(22).
 
     Parameters
@@ -207,6 +256,10 @@ def evaluate(model: Model, s: float, q: np.ndarray, qd: np.ndarray, torque: floa
     separated : teeth apart (Theta = 0); always False when separation is switched off
     dirs : slip direction (+1/-1) per active pair, used by the stick-slip law
     stuck : boolean mask over active pairs held by static friction
+    back : (with ``separated``) the back flanks are in contact: delta < -backlash
+
+    With a back flank the mesh spring and damper act on delta + b with the same stiffness law
+    and no friction. Torsional: the x and y equations are not integrated (q'' = 0 there).
     """
     fx = model.effects
     _, xi, s1m, s2m, k = model.contact(s, active)
@@ -215,18 +268,23 @@ def evaluate(model: Model, s: float, q: np.ndarray, qd: np.ndarray, torque: floa
     ddelta = qd[1] - qd[4] + qd[2] + qd[5]
     theta = 0.0 if separated else 1.0
     normal = theta * k * delta
+    compression = theta * delta
+    if separated and back:
+        theta, compression = 1.0, delta + model.backlash
     w = model.friction_directions(s1m, s2m)
     nominal = model.nominal_sliding(s1m, s2m, speed)
     a = model.sliding_gradient(w)
     v = nominal + a @ qd
     # Eq. (4) without friction: Ft - C q' - (Kb + Km) q, mesh damping only in contact
-    F = -model.c_diag * qd - model.kb_diag * q - G * (theta * (km * delta + model.cm * ddelta))
+    F = -model.c_diag * qd - model.kb_diag * q - G * (km * compression + theta * model.cm * ddelta)
     F[U1] += torque / model.rb1
     friction = friction_law_forces(model, normal, v, nominal, dirs) if fx.friction != "off" \
         else np.zeros_like(k)
     if fx.friction == "stick_slip":
         friction = np.where(stuck, 0.0, friction)
     F = F + friction @ w
+    if model.torsional:
+        F[[X1, Y1, X2, Y2]] = 0.0  # rigid supports: no motion, whatever the force
     lam_exact = np.zeros(0)
     if fx.friction == "stick_slip" and stuck.any():
         ws, as_ = w[stuck], a[stuck]
@@ -235,7 +293,10 @@ def evaluate(model: Model, s: float, q: np.ndarray, qd: np.ndarray, torque: floa
         friction = friction.copy()
         friction[stuck] = lam
         F = F + lam @ ws
+        if model.torsional:
+            F[[X1, Y1, X2, Y2]] = 0.0
         lam_exact = lam if fx.stick_tie == "exact" else static_friction(
             model, F - lam @ ws, ws, as_, model.sliding_bias(ws, qd, speed, "exact"))
-    qdd = model.minv * F
-    return Eval(qdd, delta, ddelta, km, theta, normal, friction, v, w, s1m, k, xi, lam_exact)
+    qdd = model.minv_free * F
+    return Eval(qdd, delta, compression, ddelta, km, theta, normal, friction, v, w, s1m, k, xi,
+                lam_exact)

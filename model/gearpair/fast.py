@@ -70,6 +70,7 @@ import numpy as np  # noqa: E402
 
 from .effects import Effects  # noqa: E402
 from .engine import (  # noqa: E402
+    CONTACT_BACK,
     CONTACT_SEPARATED,
     CONTACT_SLIP,
     CONTACT_STICK,
@@ -133,11 +134,13 @@ jit_inline = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline
 # float parameters (mp)
 P_MINV, P_C, P_KB = 0, 6, 12
 (P_RB1, P_RB2, P_RATIO, P_CM, P_MU, P_VEPS, P_S1A, P_S1S2, P_PB, P_L, P_PER, P_XIP, P_KMEAN,
- P_RTOL, P_MAXSTEP, P_TTOL, P_DX, P_INVDX, P_SPACING, P_IRB1, P_IRB2, P_IPER) = range(18, 40)
-N_MP = 40
+ P_RTOL, P_MAXSTEP, P_TTOL, P_DX, P_INVDX, P_SPACING, P_IRB1, P_IRB2, P_IPER,
+ P_BACK) = range(18, 41)
+N_MP = 41
 # int flags (mi)
-(I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB) = range(10)
-N_MI = 10
+(I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB, I_BACK,
+ I_TORS) = range(12)
+N_MI = 12
 KIND_CONSTANT, KIND_TABLE = 0, 1
 FR_OFF, FR_NOMINAL, FR_REG, FR_STICK = 0, 1, 2, 3
 _FRICTION_CODE = {"off": FR_OFF, "nominal": FR_NOMINAL, "regularized": FR_REG,
@@ -145,13 +148,14 @@ _FRICTION_CODE = {"off": FR_OFF, "nominal": FR_NOMINAL, "regularized": FR_REG,
 # per-pair work rows (pw)
 W_XI, W_S1M, W_S2M, W_K, W_N, W_F, W_V, W_NOM, W_LAMEX, W_STK, W_DK = range(11)
 N_PW = 11
-# scalar work (sc): delta, ddelta, km, theta, F[6], qdd[6]
-S_DELTA, S_DDELTA, S_KM, S_THETA, S_F, S_QDD = 0, 1, 2, 3, 4, 10
-N_SC = 16
+# scalar work (sc): delta, ddelta, km, theta, F[6], qdd[6], compression (delta, delta + b on
+# the back flank, 0 apart: the mesh force is km * compression)
+S_DELTA, S_DDELTA, S_KM, S_THETA, S_F, S_QDD, S_COMP = 0, 1, 2, 3, 4, 10, 16
+N_SC = 17
 # continuous engine state (st) and discrete state (ist)
 T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED = range(7)
 N_ST = 7
-J_SEP, J_NPREV, J_NEVTOT = range(3)
+J_SEP, J_NPREV, J_NEVTOT = range(3)  # J_SEP: 0 drive flank, 1 apart, 2 back flank
 N_IST = 3
 N_Q = 6
 N_Y = 16  # q, q', and 4 energy quadratures: input, damping loss, friction work, parametric
@@ -296,12 +300,13 @@ def _solve_small(Sm, n, nrhs):
 
 
 @jit
-def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, dirs, stuck,
+def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, dirs, stuck,
               pw, sc, Sm):
     """`equations.evaluate` for one contact state, into the work arrays ``pw`` / ``sc``.
 
     ``y`` holds q (0..5) and q' (6..11); ``dirs``/``stuck`` are over the tracked pairs;
-    ``s_idx`` is the mesh travel that picks the stiffness-table interval (see `_pair_k`).
+    ``s_idx`` is the mesh travel that picks the stiffness-table interval (see `_pair_k`);
+    ``cs`` is the contact code (0 drive flank, 1 apart, 2 back flank).
     """
     rb1, rb2, mu = mp[P_RB1], mp[P_RB2], mp[P_MU]
     irb1, irb2 = mp[P_IRB1], mp[P_IRB2]
@@ -319,14 +324,20 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, d
         km += k
     delta = y[1] - y[4] + y[2] + y[5]
     ddelta = y[7] - y[10] + y[8] + y[11]
-    theta = 0.0 if sep else 1.0
+    theta = 0.0 if cs == 1 else 1.0
+    comp = delta
+    if cs == 1:
+        comp = 0.0
+    elif cs == 2:
+        comp = delta + mp[P_BACK]
     sc[S_DELTA] = delta
     sc[S_DDELTA] = ddelta
     sc[S_KM] = km
     sc[S_THETA] = theta
+    sc[S_COMP] = comp
     for m in range(6):
         sc[S_F + m] = -mp[P_C + m] * y[6 + m] - mp[P_KB + m] * y[m]
-    gt = theta * (km * delta + mp[P_CM] * ddelta)
+    gt = km * comp + theta * mp[P_CM] * ddelta
     sc[S_F + 1] -= gt
     sc[S_F + 2] -= gt
     sc[S_F + 4] += gt
@@ -336,7 +347,7 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, d
     for i in range(nact):
         j = act[i]
         s1m, s2m = pw[W_S1M, i], pw[W_S2M, i]
-        normal = theta * pw[W_K, i] * delta
+        normal = pw[W_K, i] * delta if cs == 0 else 0.0  # friction on the drive flanks only
         pw[W_N, i] = normal
         nom = speed * (mp[P_RATIO] * s2m - s1m)
         pw[W_NOM, i] = nom
@@ -365,6 +376,8 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, d
             sc[S_F + 2] += f * s1m * irb1
             sc[S_F + 3] += f
             sc[S_F + 5] += f * s2m * irb2
+    if mi[I_TORS] != 0:
+        _pin_supports(sc)
     if ns > 0:
         # Static friction of the stuck pairs (equations.static_friction): rows a_a, columns
         # w_b; rhs -(c + a M^-1 F) for the chosen tie (col ns) and the exact tie (col ns+1).
@@ -372,6 +385,7 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, d
         turn = 0.0
         if full:
             turn = -(speed * y[8] - rb1 * speed / rb2 * y[11])
+        tr = 0.0 if mi[I_TORS] != 0 else 1.0
         ra = 0
         for ia in range(nact):
             if pw[W_STK, ia] == 0.0:
@@ -382,9 +396,9 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, d
                 if pw[W_STK, ib] == 0.0:
                     continue
                 wb2, wb5 = pw[W_S1M, ib] / rb1, pw[W_S2M, ib] / rb2
-                if full:  # a = -w
-                    Sm[ra, rb] = -(mp[P_MINV + 0] + mp[P_MINV + 2] * wa2 * wb2 + mp[P_MINV + 3]
-                                   + mp[P_MINV + 5] * wa5 * wb5)
+                if full:  # a = -w; torsional: no x motion
+                    Sm[ra, rb] = -(tr * (mp[P_MINV + 0] + mp[P_MINV + 3])
+                                   + mp[P_MINV + 2] * wa2 * wb2 + mp[P_MINV + 5] * wa5 * wb5)
                 else:     # a = [1, 0, 0, -1, 0, 0]
                     Sm[ra, rb] = -mp[P_MINV + 0] - mp[P_MINV + 3]
                 rb += 1
@@ -411,26 +425,53 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, d
             sc[S_F + 3] += lam
             sc[S_F + 5] += lam * s2m / rb2
             ra += 1
+        if mi[I_TORS] != 0:
+            _pin_supports(sc)
     for m in range(6):
         sc[S_QDD + m] = mp[P_MINV + m] * sc[S_F + m]
 
 
 @jit_inline
-def _n_events(mi, nact, sep):
-    n = 1 if mi[I_SEP] != 0 else 0
-    if mi[I_FRIC] == FR_STICK and not sep:
+def _pin_supports(sc):
+    """Torsional model: x1, y1, x2, y2 are not integrated (rigid supports)."""
+    sc[S_F + 0] = 0.0
+    sc[S_F + 1] = 0.0
+    sc[S_F + 3] = 0.0
+    sc[S_F + 4] = 0.0
+
+
+@jit_inline
+def _n_sep_events(mi, cs):
+    """Number of flank events: 1 (leave/regain contact), 2 apart with a back flank."""
+    if mi[I_SEP] == 0:
+        return 0
+    return 2 if (cs == 1 and mi[I_BACK] != 0) else 1
+
+
+@jit_inline
+def _n_events(mi, nact, cs):
+    n = _n_sep_events(mi, cs)
+    if mi[I_FRIC] == FR_STICK and cs == 0:
         n += nact
     return n
 
 
 @jit_inline
-def _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g):
+def _event_values(mp, mi, nact, cs, act, dirs, pw, sc, g):
     """`switching.event_values`: positive while the state holds."""
     n = 0
     if mi[I_SEP] != 0:
-        g[0] = -sc[S_DELTA] if sep else sc[S_DELTA]
-        n = 1
-    if mi[I_FRIC] == FR_STICK and not sep:
+        d = sc[S_DELTA]
+        if cs == 0:
+            g[0] = d
+        elif cs == 2:
+            g[0] = -(d + mp[P_BACK])
+        else:
+            g[0] = -d
+            if mi[I_BACK] != 0:
+                g[1] = d + mp[P_BACK]
+        n = _n_sep_events(mi, cs)
+    if mi[I_FRIC] == FR_STICK and cs == 0:
         for i in range(nact):
             if pw[W_STK, i] != 0.0:
                 lam = abs(pw[W_F, i])
@@ -444,24 +485,26 @@ def _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g):
 
 
 @jit
-def _param_rate(mp, mi, tdk, s_idx, y, act, nact, sep, speed):
-    """Parametric power 0.5 Theta (d km/dt) delta^2 on the table intervals at s_idx (W)."""
-    if mi[I_VARY] == 0 or sep:
+def _param_rate(mp, mi, tdk, s_idx, y, act, nact, cs, speed):
+    """Parametric power 0.5 (d km/dt) compression^2 on the table intervals at s_idx (W)."""
+    if mi[I_VARY] == 0 or cs == 1:
         return 0.0
     dkm = 0.0
     for i in range(nact):
         dkm += tdk[_table_index(mp, mi, _pair_xi(mp, s_idx, act[i]))]
     delta = y[1] - y[4] + y[2] + y[5]
+    if cs == 2:
+        delta += mp[P_BACK]
     return 0.5 * dkm * mp[P_RB1] * speed * delta * delta
 
 
 @jit
-def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, sep, dirs, stuck,
+def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, cs, dirs, stuck,
          pw, sc, Sm, dy):
     """Right-hand side of one contact state with the four energy quadratures."""
     rb1 = mp[P_RB1]
     s = s0 + rb1 * speed * (t - t0)
-    _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, sep, dirs, stuck,
+    _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, dirs, stuck,
               pw, sc, Sm)
     for m in range(6):
         dy[m] = y[6 + m]
@@ -484,7 +527,7 @@ def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, sep
         dkm = 0.0
         for i in range(nact):
             dkm += pw[W_DK, i]
-        dy[15] = 0.5 * theta * dkm * rb1 * speed * sc[S_DELTA] * sc[S_DELTA]
+        dy[15] = 0.5 * dkm * rb1 * speed * sc[S_COMP] * sc[S_COMP]
     else:
         dy[15] = 0.0
 
@@ -523,9 +566,9 @@ def _next_knot_dt(mp, mi, s, speed, act, nact):
 
 
 @jit
-def _settle(mp, mi, s, y, speed, act, nact, sep, dirs, stuck):
+def _settle(mp, mi, s, y, speed, act, nact, cs, dirs, stuck):
     """`switching.settle_directions`: slip direction of slipping pairs from their velocity."""
-    if mi[I_FRIC] != FR_STICK or sep:
+    if mi[I_FRIC] != FR_STICK or cs != 0:
         return
     for i in range(nact):
         j = act[i]
@@ -548,23 +591,25 @@ def _pair_v(mp, mi, s, y, speed, j):
 def _switch(mp, mi, tx, tk, tdk, label, s, y, torque, speed, act, nact, ist, dirs, stuck,
             trial, pw, sc, Sm):
     """`switching.switch`: apply event ``label`` (index into the event functions)."""
-    sep = ist[J_SEP] != 0
-    if mi[I_SEP] != 0:
-        if label == 0:
-            if not sep:
-                ist[J_SEP] = 1
-                for j in range(mi[I_NP]):
-                    stuck[j] = 0
-            else:
-                ist[J_SEP] = 0
-                _settle(mp, mi, s, y, speed, act, nact, False, dirs, stuck)
-            return
-        i = label - 1
-    else:
-        i = label
+    cs = ist[J_SEP]
+    nsep = _n_sep_events(mi, cs)
+    if label < nsep:
+        if cs == 0:      # drive flanks separate
+            ist[J_SEP] = 1
+            for j in range(mi[I_NP]):
+                stuck[j] = 0
+        elif cs == 2:    # back flanks separate
+            ist[J_SEP] = 1
+        elif label == 1:  # apart -> back flank contact
+            ist[J_SEP] = 2
+        else:            # apart -> drive flank contact
+            ist[J_SEP] = 0
+            _settle(mp, mi, s, y, speed, act, nact, 0, dirs, stuck)
+        return
+    i = label - nsep
     j = act[i]
     if stuck[j] != 0:
-        _evaluate(mp, mi, tx, tk, tdk, s, s, y, torque, speed, act, nact, sep, dirs, stuck, pw,
+        _evaluate(mp, mi, tx, tk, tdk, s, s, y, torque, speed, act, nact, cs, dirs, stuck, pw,
                   sc, Sm)
         stuck[j] = 0
         dirs[j] = _sgn(pw[W_LAMEX, i], 1.0)
@@ -573,7 +618,7 @@ def _switch(mp, mi, tx, tk, tdk, label, s, y, torque, speed, act, nact, ist, dir
     for jj in range(mi[I_NP]):
         trial[jj] = stuck[jj]
     trial[j] = 1
-    _evaluate(mp, mi, tx, tk, tdk, s, s, y, torque, speed, act, nact, sep, dirs, trial, pw, sc,
+    _evaluate(mp, mi, tx, tk, tdk, s, s, y, torque, speed, act, nact, cs, dirs, trial, pw, sc,
               Sm)
     lam = abs(pw[W_F, i])
     lam_e = pw[W_LAMEX, i]
@@ -644,12 +689,12 @@ def _events_at(mp, mi, tx, tk, tdk, t, yk, t0, s0, torque, speed, act, nact, sep
     _evaluate(mp, mi, tx, tk, tdk, s, s, yk, torque, speed, act, nact, sep, dirs, stuck, pw,
               sc, Sm)
     _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
-    return sc[S_THETA] * sc[S_KM] * sc[S_DELTA]
+    return sc[S_KM] * sc[S_COMP]
 
 
 @jit
 def _book(mi, st, sep, stuck, dt):
-    if sep:
+    if sep != 0:  # drive flanks apart (free or on the back flank)
         st[T_SEP] += dt
     elif _any_stuck(mi, stuck):
         st[T_STICK] += dt
@@ -666,7 +711,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     t0, s0 = st[T_T], st[T_S]
     torque, speed = st[T_TORQUE], st[T_SPEED]
     v1 = mp[P_RB1] * speed
-    sep = ist[J_SEP] != 0
+    sep = ist[J_SEP]  # contact code, held over the piece
     rtol, maxstep, spacing = mp[P_RTOL], mp[P_MAXSTEP], mp[P_SPACING]
     ng = _n_events(mi, nact, sep)
     fm = _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, sep, dirs,
@@ -675,7 +720,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
         out[O_FMAX] = fm
     # A known boundary can invalidate a stick at once (the entering pair takes load, so
     # mu f_mesh drops below the static friction): release it before integrating.
-    e0 = 1 if mi[I_SEP] != 0 else 0
+    e0 = _n_sep_events(mi, sep)
     for e in range(e0, ng):
         if stuck[act[e - e0]] != 0 and gprev[e] < 0.0:
             _switch(mp, mi, tx, tk, tdk, e, s0, y, torque, speed, act, nact, ist, dirs, stuck,
@@ -769,7 +814,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 # the last stage (FSAL) was evaluated at the step end: reuse it
                 th = 1.0
                 _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
-                fm = sc[S_THETA] * sc[S_KM] * sc[S_DELTA]
+                fm = sc[S_KM] * sc[S_COMP]
             else:
                 if ks == nsub:
                     th = 1.0
@@ -880,7 +925,7 @@ def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
                     inside = True
             if not inside:
                 stuck[j] = 0
-    _settle(mp, mi, st[T_S], y, speed, act, nact, ist[J_SEP] != 0, dirs, stuck)
+    _settle(mp, mi, st[T_S], y, speed, act, nact, ist[J_SEP], dirs, stuck)
     if nprev >= 0:
         # Stored mesh energy jumps when a pair enters or leaves: book it as parametric.
         km_before = 0.0
@@ -888,8 +933,8 @@ def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
             xi = _pair_xi(mp, st[T_S], prev_act[i])
             km_before += _pair_k(mp, mi, tx, tk, tdk, xi, xi, nprev)
         _evaluate(mp, mi, tx, tk, tdk, st[T_S], st[T_S], y, torque, speed, act, nact,
-                  ist[J_SEP] != 0, dirs, stuck, pw, sc, Sm)
-        y[15] += 0.5 * sc[S_THETA] * (sc[S_KM] - km_before) * sc[S_DELTA] ** 2
+                  ist[J_SEP], dirs, stuck, pw, sc, Sm)
+        y[15] += 0.5 * (sc[S_KM] - km_before) * sc[S_COMP] ** 2
     while st[T_T] < tb:
         r = _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb,
                    K, R, ytmp, ynew, g, gprev, pw, sc, Sm, out)
@@ -907,12 +952,59 @@ def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
 
 
 @jit
+def _speed_change(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, torque, speed,
+                  h, pw, sc, Sm):
+    """`switching.speed_change`: stuck pairs after a jump of the speed input."""
+    if mi[I_FRIC] != FR_STICK or ist[J_SEP] != 0:
+        return
+    if ist[J_NPREV] >= 0:
+        nact = ist[J_NPREV]
+        for i in range(nact):
+            act[i] = prev_act[i]
+    else:
+        nact = _active_at(mp, mi, st[T_S], act)
+    full = mi[I_SLIDE] == 1
+    tr = 0.0 if mi[I_TORS] != 0 else 1.0
+    for i in range(nact):
+        j = act[i]
+        if stuck[j] == 0:
+            continue
+        stuck[j] = 0  # evaluate as slipping: only v and the normal force are needed
+        _evaluate(mp, mi, tx, tk, tdk, st[T_S], st[T_S], y, torque, speed, act, nact, 0, dirs,
+                  stuck, pw, sc, Sm)
+        stuck[j] = 1
+        v = pw[W_V, i]
+        if v == 0.0:
+            continue
+        w2, w5 = pw[W_S1M, i] * mp[P_IRB1], pw[W_S2M, i] * mp[P_IRB2]
+        # impulse along w = [-1, 0, w2, 1, 0, w5] changes v by S lambda
+        if full:
+            S = -(tr * (mp[P_MINV] + mp[P_MINV + 3]) + mp[P_MINV + 2] * w2 * w2
+                  + mp[P_MINV + 5] * w5 * w5)
+        else:
+            S = -(mp[P_MINV] + mp[P_MINV + 3])
+        if abs(v) <= mp[P_MU] * abs(pw[W_N, i]) * h * abs(S):
+            lam = -v / S
+            y[6] -= tr * mp[P_MINV] * lam
+            y[8] += mp[P_MINV + 2] * w2 * lam
+            y[9] += tr * mp[P_MINV + 3] * lam
+            y[11] += mp[P_MINV + 5] * w5 * lam
+        else:
+            stuck[j] = 0
+            dirs[j] = _sgn(v, 1.0)
+    _settle(mp, mi, st[T_S], y, speed, act, nact, 0, dirs, stuck)
+
+
+@jit
 def _advance(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act, act, t_end,
              torque, speed, offs, kcur, K, R, ytmp, ynew, g, gprev, pw, sc, Sm, out):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
     for i in range(N_OUT):
         out[i] = 0.0
     out[O_FMAX] = -np.inf
+    if speed != st[T_SPEED]:
+        _speed_change(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, torque,
+                      speed, t_end - st[T_T], pw, sc, Sm)
     st[T_TORQUE] = torque
     st[T_SPEED] = speed
     t_start, s_start = st[T_T], st[T_S]
@@ -978,14 +1070,14 @@ def _eval_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw, s
     else:
         nact = _active_at(mp, mi, st[T_S], act)
     _evaluate(mp, mi, tx, tk, tdk, st[T_S], st[T_S], y, st[T_TORQUE], st[T_SPEED], act, nact,
-              ist[J_SEP] != 0, dirs, stuck, pw, sc, Sm)
+              ist[J_SEP], dirs, stuck, pw, sc, Sm)
     return nact
 
 
 @jit
 def _reset_settle(mp, mi, y, st, ist, dirs, stuck, act):
     nact = _active_at(mp, mi, st[T_S], act)
-    _settle(mp, mi, st[T_S], y, st[T_SPEED], act, nact, ist[J_SEP] != 0, dirs, stuck)
+    _settle(mp, mi, st[T_S], y, st[T_SPEED], act, nact, ist[J_SEP], dirs, stuck)
 
 
 # -- the engine -----------------------------------------------------------------------------
@@ -1050,6 +1142,9 @@ class FastEngine(Engine):
         mi[I_TIE] = 1 if fx.stick_tie == "paper" else 0
         mi[I_NSAMP] = int(n_samples)
         mi[I_MAXEV] = int(max_events)
+        mi[I_BACK] = 1 if fx.backlash is not None else 0
+        mp[P_BACK] = 0.0 if fx.backlash is None else float(fx.backlash)
+        mi[I_TORS] = 1 if m.torsional else 0
         self._mp, self._mi = mp, mi
         self._tx = np.ascontiguousarray(st.xi, dtype=float)
         self._tk = np.ascontiguousarray(st.k, dtype=float)
@@ -1078,8 +1173,8 @@ class FastEngine(Engine):
         self._R = np.zeros((5, N_Y))
         self._ytmp = np.zeros(N_Y)
         self._ynew = np.zeros(N_Y)
-        self._g = np.zeros(n + 1)
-        self._gprev = np.zeros(n + 1)
+        self._g = np.zeros(n + 2)
+        self._gprev = np.zeros(n + 2)
         self._pw = np.zeros((N_PW, n))
         self._sc = np.zeros(N_SC)
         self._Sm = np.zeros((n, n + 2))
@@ -1104,7 +1199,7 @@ class FastEngine(Engine):
             self._y[:N_Q] = m.static_deflection(torque, float(k.sum()))
         delta = self._y[1] - self._y[4] + self._y[2] + self._y[5]
         self._ist[:] = 0
-        self._ist[J_SEP] = 1 if (m.effects.separation and delta < 0.0) else 0
+        self._ist[J_SEP] = m.contact_code(delta)
         self._ist[J_NPREV] = -1
         self._dirs[:] = 1.0
         self._stuck[:] = 0
@@ -1118,7 +1213,8 @@ class FastEngine(Engine):
         return {
             "t": float(self._st[T_T]), "s": float(self._st[T_S]), "y": self._y.copy(),
             "torque": float(self._st[T_TORQUE]), "speed": float(self._st[T_SPEED]),
-            "separated": bool(self._ist[J_SEP]), "dirs": self._dirs.copy(),
+            "separated": bool(self._ist[J_SEP]), "back": bool(self._ist[J_SEP] == 2),
+            "dirs": self._dirs.copy(),
             "stuck": self._stuck.astype(bool), "t_stick": float(self._st[T_STICK]),
             "t_sep": float(self._st[T_SEP]), "n_events_total": int(self._ist[J_NEVTOT]),
             "h": float(self._st[T_H]) if self._st[T_H] > 0 else None,
@@ -1130,7 +1226,7 @@ class FastEngine(Engine):
         self._st[T_T], self._st[T_S] = float(state["t"]), float(state["s"])
         self._y[:] = np.asarray(state["y"], dtype=float)
         self._st[T_TORQUE], self._st[T_SPEED] = float(state["torque"]), float(state["speed"])
-        self._ist[J_SEP] = 1 if state["separated"] else 0
+        self._ist[J_SEP] = (2 if state.get("back") else 1) if state["separated"] else 0
         self._dirs[:] = np.asarray(state["dirs"], dtype=float)
         self._stuck[:] = np.asarray(state["stuck"], dtype=bool).astype(np.int64)
         self._st[T_STICK], self._st[T_SEP] = float(state["t_stick"]), float(state["t_sep"])
@@ -1183,8 +1279,10 @@ class FastEngine(Engine):
         nact = self._now()
         pw, sc, y = self._pw, self._sc, self._y
         theta, km, delta = sc[S_THETA], sc[S_KM], sc[S_DELTA]
-        mesh = float(theta * km * delta)
-        if self._ist[J_SEP]:
+        mesh = float(km * sc[S_COMP])
+        if self._ist[J_SEP] == 2:
+            state = CONTACT_BACK
+        elif self._ist[J_SEP]:
             state = CONTACT_SEPARATED
         elif any(self._stuck[self._act[i]] for i in range(nact)):
             state = CONTACT_STICK
@@ -1215,7 +1313,7 @@ class FastEngine(Engine):
         sc, y = self._sc, self._y
         q, qd = y[:N_Q], y[N_Q:2 * N_Q]
         stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q \
-            + 0.5 * sc[S_THETA] * sc[S_KM] * sc[S_DELTA] ** 2
+            + 0.5 * sc[S_KM] * sc[S_COMP] ** 2
         return {"stored": float(stored), "input": float(y[12]), "damping": float(y[13]),
                 "friction": float(y[14]), "parametric": float(y[15])}
 

@@ -64,7 +64,10 @@ def modes(model: Model, which: str = "slip", xi: float | None = None):
     largest component 1) of the ``slip`` (6) or ``stick`` (5) model."""
     if which == "slip":
         M, K = slip_matrices(model)
-        lam, vec = eigh(K, M)
+        free = model.free_dofs  # torsional: the (u1, u2) block, shapes padded with zeros
+        lam, v = eigh(K[np.ix_(free, free)], M[np.ix_(free, free)])
+        vec = np.zeros((6, len(free)))
+        vec[free] = v
     elif which == "stick":
         Mt, _, Kt, _, T = stick_matrices(model, xi)
         lam, vec = eig(Kt, Mt)

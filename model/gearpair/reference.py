@@ -25,6 +25,7 @@ from scipy.optimize import brentq
 
 from .effects import Effects
 from .engine import (
+    CONTACT_BACK,
     CONTACT_SEPARATED,
     CONTACT_SLIP,
     CONTACT_STICK,
@@ -35,7 +36,14 @@ from .engine import (
 )
 from .equations import U1, U2, G, Model, evaluate
 from .params import GearParams
-from .switching import Mode, event_labels, event_values, settle_directions, switch
+from .switching import (
+    Mode,
+    event_labels,
+    event_values,
+    settle_directions,
+    speed_change,
+    switch,
+)
 
 METHODS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "LSODA": LSODA}
 N_Q = 6
@@ -102,8 +110,8 @@ class ReferenceEngine(Engine):
         active, _, _, _, k = m.contact(self.s)
         if static and torque != 0.0:
             self.y[:N_Q] = m.static_deflection(torque, float(k.sum()))
-        sep = m.effects.separation and float(G @ self.y[:N_Q]) < 0.0
-        self.mode = Mode(sep, np.ones(n), np.zeros(n, dtype=bool))
+        code = m.contact_code(float(G @ self.y[:N_Q]))
+        self.mode = Mode(code != 0, np.ones(n), np.zeros(n, dtype=bool), code == 2)
         self.mode, qd = settle_directions(m, self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
                                           self.torque, self.speed, active, self.mode)
         self.t_stick = 0.0
@@ -116,7 +124,7 @@ class ReferenceEngine(Engine):
     def get_state(self) -> dict:
         return {
             "t": self.t, "s": self.s, "y": self.y.copy(), "torque": self.torque,
-            "speed": self.speed, "separated": self.mode.separated,
+            "speed": self.speed, "separated": self.mode.separated, "back": self.mode.back,
             "dirs": self.mode.dirs.copy(), "stuck": self.mode.stuck.copy(),
             "t_stick": self.t_stick, "t_sep": self.t_sep, "n_events_total": self.n_events_total,
             "h": self._h, "last": self._last,
@@ -128,7 +136,7 @@ class ReferenceEngine(Engine):
         self.y = np.array(state["y"], dtype=float)
         self.torque, self.speed = float(state["torque"]), float(state["speed"])
         self.mode = Mode(bool(state["separated"]), np.array(state["dirs"], dtype=float),
-                         np.array(state["stuck"], dtype=bool))
+                         np.array(state["stuck"], dtype=bool), bool(state.get("back", False)))
         self.t_stick, self.t_sep = float(state["t_stick"]), float(state["t_sep"])
         self.n_events_total = int(state["n_events_total"])
         self._h = state["h"]
@@ -152,7 +160,8 @@ class ReferenceEngine(Engine):
         def fun(t, y):
             q, qd = y[:N_Q], y[N_Q:2 * N_Q]
             s = s0 + rb1 * speed * (t - t0)
-            ev = evaluate(m, s, q, qd, torque, speed, active, mode.separated, dirs, stuck)
+            ev = evaluate(m, s, q, qd, torque, speed, active, mode.separated, dirs, stuck,
+                          mode.back)
             dkm = float(m.stiff.slope(ev.xi, len(active)).sum()) * rb1 * speed \
                 if varying else 0.0
             out = np.empty_like(y)
@@ -161,7 +170,7 @@ class ReferenceEngine(Engine):
             out[12] = torque / rb1 * qd[U1]
             out[13] = c_diag @ (qd * qd) + ev.theta * cm * ev.ddelta**2
             out[14] = float(ev.friction @ (ev.w @ qd))
-            out[15] = 0.5 * ev.theta * dkm * ev.delta**2
+            out[15] = 0.5 * dkm * ev.compression**2
             return out
 
         return fun
@@ -170,7 +179,7 @@ class ReferenceEngine(Engine):
         m = self.model
         s = s0 + m.p.rb1 * self.speed * (t - t0)
         return evaluate(m, s, y[:N_Q], y[N_Q:2 * N_Q], self.torque, self.speed, active,
-                        mode.separated, mode.dirs[active], mode.stuck[active])
+                        mode.separated, mode.dirs[active], mode.stuck[active], mode.back)
 
     def advance(self, t_end: float, torque: float, speed: float) -> StepSummary:
         check_inputs(torque, speed)
@@ -178,6 +187,13 @@ class ReferenceEngine(Engine):
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
         m = self.model
+        if float(speed) != self.speed:
+            active, _, _, _, _ = m.contact(self.s, self._prev_active)
+            self.mode, qd = speed_change(m, self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
+                                         float(torque), float(speed), active, self.mode,
+                                         float(t_end) - t_start)
+            self.y = self.y.copy()
+            self.y[N_Q:2 * N_Q] = qd
         self.torque, self.speed = float(torque), float(speed)
         rb1 = m.p.rb1
         extra = (m.geom.xi_pitch,) if m.effects.friction == "nominal" else ()
@@ -200,7 +216,7 @@ class ReferenceEngine(Engine):
             if km_before is not None:
                 # Stored mesh energy jumps when a pair enters or leaves: book it as parametric.
                 ev = self._eval_at(self.t, self.y, active, self.mode, self.t, self.s)
-                self.y[15] += 0.5 * ev.theta * (ev.km - km_before) * ev.delta**2
+                self.y[15] += 0.5 * (ev.km - km_before) * ev.compression**2
             while self.t < tb:
                 n_ev_seg, n_st, fm = self._integrate_segment(tb, active)
                 n_ev += n_ev_seg
@@ -263,7 +279,7 @@ class ReferenceEngine(Engine):
                                        self.torque, self.speed, active, mode)
                 self.y = self.y.copy()
                 self.y[N_Q:2 * N_Q] = qd
-                return 1, 0, ev0.theta * ev0.km * ev0.delta
+                return 1, 0, ev0.mesh_force
         n_steps = 0
         while True:
             msg = solver.step()
@@ -279,7 +295,7 @@ class ReferenceEngine(Engine):
             for tk in ts:
                 yk = sol(tk)
                 gk, evk = values(tk, yk)
-                fmax = max(fmax, evk.theta * evk.km * evk.delta)
+                fmax = max(fmax, evk.mesh_force)
                 if len(gk):
                     falls = np.flatnonzero((g_prev > 0.0) & (gk <= 0.0))
                     if falls.size:
@@ -334,9 +350,9 @@ class ReferenceEngine(Engine):
         m, p = self.model, self.model.p
         ev, active = self.evaluate_now()
         q, qd = self.y[:N_Q], self.y[N_Q:2 * N_Q]
-        mesh = ev.theta * ev.km * ev.delta
+        mesh = ev.mesh_force
         if self.mode.separated:
-            state = CONTACT_SEPARATED
+            state = CONTACT_BACK if self.mode.back else CONTACT_SEPARATED
         elif self.mode.stuck[active].any():
             state = CONTACT_STICK
         else:
@@ -362,7 +378,7 @@ class ReferenceEngine(Engine):
         m = self.model
         ev, _ = self.evaluate_now()
         q, qd = self.y[:N_Q], self.y[N_Q:2 * N_Q]
-        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q + 0.5 * ev.theta * ev.km * ev.delta**2
+        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q + 0.5 * ev.km * ev.compression**2
         return {"stored": float(stored), "input": float(self.y[12]),
                 "damping": float(self.y[13]), "friction": float(self.y[14]),
                 "parametric": float(self.y[15])}

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, fields
+import time as _time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +31,9 @@ UNITS = {
     "speed": "rad/s",
 }
 _CONVERT = {("m", "um"): 1e6, ("N", "kN"): 1e-3, ("rad/s", "rpm"): 1 / RPM, ("m", "mm"): 1e3}
+# Figures that describe the interval ending at their row (not an instant): merged, not sampled,
+# when rows are dropped.
+_FRACTIONS = ("stick_fraction", "separation_fraction")
 
 
 @dataclass
@@ -38,10 +42,13 @@ class Trajectory:
 
     ``data`` maps a column name (see `UNITS`) to an array. The step figures
     (``stick_fraction``, ``separation_fraction``, ``mesh_force_max``, ``n_events``) at row i
-    describe the interval ending at ``time[i]``; row 0 is the initial state.
+    describe the interval ending at ``time[i]``; row 0 is the initial state. ``torque`` and
+    ``speed`` at row i are the inputs held over that interval. ``meta`` holds how the run was
+    made (``engine``, ``wall_time_s``), not results.
     """
 
     data: dict[str, np.ndarray]
+    meta: dict = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
@@ -86,18 +93,89 @@ class Trajectory:
         out = self.ratios(t_from)
         out["mesh_force_n"] = {"min": float(f.min()), "mean": float(f.mean()),
                                "max": float(max(f.max(), fmax.max()))}
+        d = self.data["dte"][w]
+        out["dte_m"] = {"min": float(d.min()), "mean": float(d.mean()), "max": float(d.max()),
+                        "std": float(d.std()), "peak_to_peak": float(d.max() - d.min())}
         out["window_s"] = [float(t_from), float(self.time[-1])]
         return out
 
-    def to_csv(self, path: str | Path) -> None:
-        """Write all columns with a ``name [unit]`` header."""
-        names = list(self.data)
+    def decimate(self, every: int) -> Trajectory:
+        """Keep row 0, every ``every``-th row and the last row.
+
+        Instantaneous columns are sampled; the step figures are merged over the dropped
+        intervals (fractions weighted by interval length, ``mesh_force_max`` the peak,
+        ``n_events`` the sum), so `ratios` and the peak force do not depend on ``every``.
+        """
+        every = int(every)
+        n = len(self.time) - 1
+        if every <= 1 or n <= 1:
+            return self
+        keep = np.arange(0, n + 1, every)
+        if keep[-1] != n:
+            keep = np.append(keep, n)
+        data = {k: v[keep].copy() for k, v in self.data.items()}
+        # Intervals 1..n (interval i ends at row i); kept row keep[j] closes the group of
+        # intervals keep[j-1]+1 .. keep[j], i.e. indices keep[j-1] .. keep[j]-1 below.
+        starts = keep[:-1]
+        dt = np.diff(self.time)
+        span = np.add.reduceat(dt, starts)
+        for k in _FRACTIONS:
+            if k in self.data:
+                data[k][1:] = np.add.reduceat(self.data[k][1:] * dt, starts) / span
+        if "mesh_force_max" in self.data:
+            data["mesh_force_max"][1:] = np.maximum.reduceat(self.data["mesh_force_max"][1:],
+                                                             starts)
+        if "n_events" in self.data:
+            data["n_events"][1:] = np.add.reduceat(self.data["n_events"][1:], starts)
+        return Trajectory(data, dict(self.meta))
+
+    def to_csv(self, path: str | Path, names: Sequence[str] | None = None) -> None:
+        """Write ``time`` and the columns ``names`` (default: all) with a ``name [unit]``
+        header, SI values with 10 significant digits."""
+        names = ["time"] + [n for n in (self.data if names is None else names) if n != "time"]
+        unknown = [n for n in names if n not in self.data]
+        if unknown:
+            raise ValueError(f"no column {', '.join(unknown)}; recorded: {', '.join(self.data)}")
         with Path(path).open("w", newline="") as fh:
             wr = csv.writer(fh)
             wr.writerow([f"{n} [{UNITS.get(n, '')}]" for n in names])
             cols = [self.data[n] for n in names]
             for i in range(len(self.time)):
                 wr.writerow([f"{c[i]:.10g}" for c in cols])
+
+    def plot(self, path: str | Path, title: str | None = None) -> None:
+        """Draw DTE, mesh force, friction force and contact state against time into ``path``
+        (format from its suffix, e.g. ``.png``, ``.pdf``). Needs matplotlib (extra ``plot``).
+        """
+        try:  # matplotlib stays optional: the core never needs it
+            from matplotlib.figure import Figure
+        except ImportError:
+            raise ImportError("plotting needs matplotlib: pip install 'gearpair[plot]'") from None
+        t = self.time
+        # Figure without pyplot: no GUI backend is selected and no global state is touched.
+        fig = Figure(figsize=(8.0, 8.0), layout="constrained")
+        ax = fig.subplots(4, 1, sharex=True)
+        ax[0].plot(t, self.get("dte", "um"), lw=0.8)
+        ax[0].set_ylabel("DTE (um)")
+        if "mesh_force_max" in self.data:  # behind the samples: it only adds the peaks
+            ax[1].plot(t[1:], self.get("mesh_force_max", "kN")[1:], lw=0.6, color="0.6",
+                       label="peak in interval")
+        ax[1].plot(t, self.get("mesh_force", "kN"), lw=0.8, label="at sample")
+        ax[1].legend(loc="upper right", fontsize="small")
+        ax[1].set_ylabel("mesh force (kN)")
+        ax[2].plot(t, self.get("friction_force", "kN"), lw=0.8)
+        ax[2].set_ylabel("friction force (kN)")
+        state = self.data["contact_state"]
+        labels = ["separated", "slip", "stick"] + (["back flank"] if np.any(state == 3) else [])
+        ax[3].step(t, state, where="post", lw=0.8)
+        ax[3].set_yticks(range(len(labels)), labels)
+        ax[3].set_ylim(-0.3, len(labels) - 0.7)
+        ax[3].set_xlabel("time (s)")
+        for a in ax:
+            a.grid(True, lw=0.3)
+        if title:
+            fig.suptitle(title)
+        fig.savefig(Path(path), dpi=120)
 
 
 def _as_fn(x: Input) -> Callable[[float], float]:
@@ -130,6 +208,7 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
         raise ValueError(f"dt = {dt!r} must be a positive number of seconds")
     if not (t_end > t0):
         raise ValueError(f"t_end = {t_end!r} must be after t0 = {t0!r}")
+    wall0 = _time.perf_counter()
     eng = engine if isinstance(engine, Engine) else make_engine(params, effects, engine,
                                                                 **engine_options)
     n = int(round((t_end - t0) / dt))
@@ -159,4 +238,5 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
         summ = eng.advance(grid[i], T, W)
         record(i, eng.outputs(), summ, T, W)
     data = {"time": grid, **{k: v for k, v in cols.items() if k != "time"}, **extra}
-    return Trajectory(data)
+    name = engine if isinstance(engine, str) else type(engine).__name__
+    return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0})

@@ -4,7 +4,8 @@ Every event function is positive while the current discrete state is valid and c
 when it must change, so an engine only watches for a fall through zero:
 
 - teeth in contact: ``delta`` (falls through 0 -> separation, Eq. (8));
-  apart: ``-delta`` (-> re-contact);
+  apart: ``-delta`` (-> re-contact) and, with a back flank of clearance b, ``delta + b``
+  (-> back-flank contact); on the back flank: ``-(delta + b)`` (-> apart);
 - a slipping pair with direction d: ``d * v_j`` (the sliding velocity reverses -> test for
   stick by Eq. (14));
 - a stuck pair: ``mu f_mesh - |f_static|`` (Eq. (14) violated -> slip in the direction of
@@ -20,6 +21,7 @@ paper tie can only lengthen sticks, never chatter.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,17 +35,24 @@ class Mode:
 
     Attributes
     ----------
-    separated : teeth apart (Theta = 0)
+    separated : drive flanks apart (Theta = 0)
     dirs : slip direction +1/-1 of each pair (sign of its sliding velocity)
     stuck : pair held by static friction
+    back : (with ``separated``) the back flanks are in contact
     """
 
     separated: bool
     dirs: np.ndarray
     stuck: np.ndarray
+    back: bool = False
 
     def copy(self) -> Mode:
-        return Mode(self.separated, self.dirs.copy(), self.stuck.copy())
+        return Mode(self.separated, self.dirs.copy(), self.stuck.copy(), self.back)
+
+    @property
+    def code(self) -> int:
+        """0 drive flank in contact, 1 apart, 2 back flank in contact."""
+        return 0 if not self.separated else (2 if self.back else 1)
 
 
 def _stuck_rank(stuck_active: np.ndarray, i: int) -> int:
@@ -59,7 +68,9 @@ def event_labels(model: Model, mode: Mode, active: np.ndarray) -> list[tuple[str
     """What each event function watches: ("sep", -1) or ("pair", tracked index)."""
     labels: list[tuple[str, int]] = []
     if model.effects.separation:
-        labels.append(("sep", -1))
+        labels.append(("back" if mode.back else "sep", -1))
+        if mode.separated and not mode.back and math.isfinite(model.backlash):
+            labels.append(("back", -1))
     if model.effects.friction == "stick_slip" and not mode.separated:
         labels += [("pair", int(j)) for j in active]
     return labels
@@ -69,7 +80,13 @@ def event_values(model: Model, ev: Eval, mode: Mode, active: np.ndarray) -> np.n
     """Event functions at one instant, positive while the state holds (see module doc)."""
     out = []
     if model.effects.separation:
-        out.append(-ev.delta if mode.separated else ev.delta)
+        b = model.backlash
+        if mode.back:
+            out.append(-(ev.delta + b))
+        else:
+            out.append(-ev.delta if mode.separated else ev.delta)
+            if mode.separated and math.isfinite(b):
+                out.append(ev.delta + b)
     if model.effects.friction == "stick_slip" and not mode.separated:
         mu = model.p.mu
         stuck = mode.stuck[active]
@@ -97,7 +114,7 @@ def stick_test(model: Model, s, q, qd, torque, speed, active, mode: Mode, j: int
     trial[j] = True
     stuck_a = trial[active]
     ev = evaluate(model, s, q, qd, torque, speed, active, mode.separated, mode.dirs[active],
-                  stuck_a)
+                  stuck_a, mode.back)
     i = int(np.flatnonzero(active == j)[0])
     lam = abs(ev.friction[i])
     lam_e = ev.lam_exact[_stuck_rank(stuck_a, i)]
@@ -117,6 +134,9 @@ def switch(model: Model, label: tuple[str, int], s, q, qd, torque, speed, active
     new = mode.copy()
     qd = qd.copy()
     kind, j = label
+    if kind == "back":
+        new.back = not mode.back
+        return new, qd
     if kind == "sep":
         if not mode.separated:
             new.separated = True
@@ -153,3 +173,40 @@ def settle_directions(model: Model, s, q, qd, torque, speed, active, mode: Mode)
         if not mode.stuck[j]:
             mode.dirs[j] = _sign(ev.v[i], mode.dirs[j])
     return mode, qd
+
+
+def speed_change(model: Model, s, q, qd, torque, speed, active, mode: Mode, h: float):
+    """Rule for a speed input that changed between two steps (zero-order hold).
+
+    The nominal sliding velocity of a stuck pair jumps with the speed, Eqs. (12)-(13). A real
+    speed change is spread over the step ``h`` (s), during which static friction can deliver
+    at most the impulse ``mu N h``. A stuck pair therefore stays stuck, with its sliding
+    velocity restored to zero by a friction impulse along ``w_j`` (``q' += M^-1 w_j lambda``),
+    when that impulse ``m_eff |v_j|`` is within ``mu N_j h``; otherwise it slips in the
+    direction of its new ``v_j``. Slipping pairs take the sign of their new ``v_j``. So a
+    finely sampled speed ramp keeps its sticks and a large speed step breaks them.
+
+    Returns the new mode and velocities.
+    """
+    if model.effects.friction != "stick_slip" or mode.separated:
+        return mode, qd
+    new = mode.copy()
+    qd = qd.copy()
+    minv = model.minv_free
+    for i, j in enumerate(active):
+        if not new.stuck[j]:
+            continue
+        ev = evaluate(model, s, q, qd, torque, speed, active, False, new.dirs[active],
+                      np.zeros(len(active), dtype=bool))
+        w = ev.w[i]
+        a = model.sliding_gradient(ev.w)[i]
+        v = float(ev.v[i])
+        if v == 0.0:
+            continue
+        S = float((a * minv) @ w)
+        if abs(v) <= model.p.mu * abs(ev.normal[i]) * h * abs(S):
+            qd += minv * w * (-v / S)
+        else:
+            new.stuck[j] = False
+            new.dirs[j] = _sign(v)
+    return settle_directions(model, s, q, qd, torque, speed, active, new)

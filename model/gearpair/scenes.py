@@ -1,0 +1,772 @@
+"""Scene files: one TOML file says what to simulate, and only that.
+
+A scene holds the gear data, the effects the run calls for, the operating inputs (torque and
+speed as constants, ramps, steps or a CSV time series), the solver settings and the outputs.
+`load_scene` reads and validates it into frozen objects; `Scene.run` simulates it with the
+fast or reference engine or through the FMU. ``docs/scenes.md`` is the format reference.
+
+Everything inside is SI. Keys whose unit is not SI say so in their name (``speed_rpm``,
+``pressure_angle_deg``). Every error names the key (``[gear] m1 = -3 is out of range; ...``),
+and relative file names are resolved against the scene file's folder.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+import sys
+import time as _time
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .effects import Effects, StiffnessSpec
+from .params import RPM, GearParams, OperatingPoint, check_range
+from .results import UNITS, Trajectory, simulate
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser as the backport
+    import tomli as tomllib
+
+ENGINES = ("fast", "reference", "fmu")
+OUTPUT_NAMES = tuple(n for n in UNITS if n != "time")
+T_END_MAX = 3600.0  # s; longer runs belong in a sweep, not one scene
+STEP_MIN, STEP_MAX = 1e-7, 1.0  # s, communication step and output interval
+RTOL_MIN, RTOL_MAX = 1e-12, 1e-3  # what both engines and the FMU accept
+_T_TOL = 1e-12  # s: a sample this close to a step's `at` counts as at it (grid round-off)
+_ROOT = Path(__file__).resolve().parents[2]  # the repository (build_fmu.py, dist/)
+
+# Inputs: scene key -> (signal, unit shown in messages, factor to SI).
+_SIGNALS = {"torque": ("torque", "N.m", 1.0), "speed": ("speed", "rad/s", 1.0),
+            "speed_rpm": ("speed", "r/min", RPM)}
+_OP = {f.name: f.metadata for f in fields(OperatingPoint)}  # input ranges (SI)
+
+
+class SceneError(ValueError):
+    """A scene file is invalid; the message names the file and the key."""
+
+
+# -- input schedules (callables of time, SI values) ----------------------------------------------
+@dataclass(frozen=True)
+class Constant:
+    """The same value at all times."""
+
+    value: float
+
+    def __call__(self, t: float) -> float:
+        return self.value
+
+
+@dataclass(frozen=True)
+class Ramp:
+    """``start`` until ``t0``, linear to ``end`` at ``t1`` (s), ``end`` after."""
+
+    start: float
+    end: float
+    t0: float
+    t1: float
+
+    def __call__(self, t: float) -> float:
+        if t <= self.t0:
+            return self.start
+        if t >= self.t1:
+            return self.end
+        return self.start + (self.end - self.start) * (t - self.t0) / (self.t1 - self.t0)
+
+
+@dataclass(frozen=True)
+class Step:
+    """``before`` for t < ``at`` (s), ``after`` from ``at`` on."""
+
+    before: float
+    after: float
+    at: float
+
+    def __call__(self, t: float) -> float:
+        return self.after if t >= self.at - _T_TOL else self.before
+
+
+@dataclass(frozen=True)
+class Series:
+    """A time series (from CSV): linear between rows, first/last value held outside.
+
+    Attributes
+    ----------
+    time : s, strictly increasing
+    values : SI values at ``time``
+    source : where it came from (``file:column``), for messages
+    """
+
+    time: tuple[float, ...]
+    values: tuple[float, ...]
+    source: str = ""
+    _t: np.ndarray = field(init=False, repr=False, compare=False)
+    _v: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # Arrays once: the loop samples the schedule at every communication point.
+        object.__setattr__(self, "_t", np.asarray(self.time, dtype=float))
+        object.__setattr__(self, "_v", np.asarray(self.values, dtype=float))
+
+    def __call__(self, t: float) -> float:
+        return float(np.interp(t, self._t, self._v))
+
+
+Schedule = Constant | Ramp | Step | Series
+
+
+# -- scene sections --------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Inputs:
+    """Operating inputs as functions of time: torque on gear 1 (N.m), speed of gear 1 (rad/s).
+
+    The engine samples them at the start of each communication step and holds them over it
+    (an FMI master's zero-order hold).
+    """
+
+    torque: Schedule = Constant(OperatingPoint().torque)
+    speed: Schedule = Constant(OperatingPoint().speed)
+
+
+@dataclass(frozen=True)
+class Solver:
+    """How to integrate.
+
+    Attributes
+    ----------
+    engine : {"fast", "reference", "fmu"}
+    rtol : relative tolerance of the integrator
+    step : communication step (s): inputs are sampled and held over it; ``None`` means the
+        output interval
+    static_start : start from static equilibrium under the initial torque
+    """
+
+    engine: str = "fast"
+    rtol: float = 1e-8
+    step: float | None = None
+    static_start: bool = True
+
+
+@dataclass(frozen=True)
+class OutputSpec:
+    """What to record.
+
+    Attributes
+    ----------
+    names : columns written to CSV (``time`` always comes first)
+    interval : sampling interval of the trajectory (s), a whole multiple of the step
+    t_from : start of the steady window for ratios and statistics (s); ``None``: t_end / 2
+    """
+
+    names: tuple[str, ...] = OUTPUT_NAMES
+    interval: float = 1e-4
+    t_from: float | None = None
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene: everything a run needs (SI).
+
+    Attributes
+    ----------
+    name : scene name (file stem unless ``name`` is given)
+    params, effects : gear data and the effects the run includes
+    inputs, solver, outputs : see `Inputs`, `Solver`, `OutputSpec`
+    t_end : simulated time (s), from 0
+    description : free text
+    path : the scene file, if it came from one
+    """
+
+    name: str
+    params: GearParams = field(default_factory=GearParams)
+    effects: Effects = field(default_factory=Effects)
+    inputs: Inputs = field(default_factory=Inputs)
+    solver: Solver = field(default_factory=Solver)
+    outputs: OutputSpec = field(default_factory=OutputSpec)
+    t_end: float = 0.2
+    description: str = ""
+    path: Path | None = None
+
+    @property
+    def step(self) -> float:
+        """Communication step (s)."""
+        return self.outputs.interval if self.solver.step is None else self.solver.step
+
+    @property
+    def every(self) -> int:
+        """Communication steps per output sample."""
+        return max(1, int(round(self.outputs.interval / self.step)))
+
+    @property
+    def t_from(self) -> float:
+        """Start of the steady window (s)."""
+        t = self.outputs.t_from
+        return 0.5 * self.t_end if t is None or t >= self.t_end else t
+
+    def with_t_end(self, t_end: float) -> Scene:
+        """The same scene over ``[0, t_end]`` (e.g. a short check). A steady window that
+        would start after the new end becomes its second half."""
+        if not (math.isfinite(t_end) and 0.0 < t_end <= T_END_MAX):
+            raise SceneError(f"t_end = {t_end!r} is out of range; allowed (0, {T_END_MAX:g}] s")
+        out = self.outputs
+        if out.t_from is not None and out.t_from >= t_end:
+            out = replace(out, t_from=None)
+        return replace(self, t_end=float(t_end), outputs=out)
+
+    def run(self, engine: str | None = None, *, fmu_path: str | Path | None = None) -> Trajectory:
+        """Simulate the scene and return the trajectory sampled at the output interval.
+
+        Parameters
+        ----------
+        engine : "fast", "reference" or "fmu"; default the scene's ``[solver] engine``
+        fmu_path : the FMU for ``engine="fmu"``; default ``dist/GearPair.fmu`` of the
+            repository, built (or rebuilt when older than its sources) with build_fmu.py
+        """
+        engine = self.solver.engine if engine is None else engine
+        if engine not in ENGINES:
+            raise SceneError(f"engine = {engine!r} is not allowed; choose one of "
+                             + ", ".join(ENGINES))
+        if self.t_end < self.step * (1 - 1e-9):
+            raise SceneError(f"t_end = {self.t_end:g} s is shorter than one step "
+                             f"({self.step:g} s)")
+        if engine == "fmu":
+            traj = run_fmu(self, fmu_path)
+        else:
+            traj = simulate(self.params, self.effects, t_end=self.t_end,
+                            torque=self.inputs.torque, speed=self.inputs.speed, dt=self.step,
+                            engine=engine, static=self.solver.static_start,
+                            rtol=self.solver.rtol)
+        out = traj.decimate(self.every)
+        out.meta.update(scene=self.name, engine=engine, t_end=self.t_end)
+        return out
+
+
+# -- the FMU as an engine ------------------------------------------------------------------------
+def default_fmu(rebuild_stale: bool = True) -> Path:
+    """``dist/GearPair.fmu`` of the repository, built with build_fmu.py if missing (or older
+    than the files it is built from, so a run never uses stale physics)."""
+    script = _ROOT / "build_fmu.py"
+    fmu = _ROOT / "dist" / "GearPair.fmu"
+    sources = [script, _ROOT / "fmu_src" / "GearPair.py",
+               *(_ROOT / "model" / "gearpair").glob("*.py")]
+    if not script.is_file():
+        if fmu.is_file():
+            return fmu
+        raise SceneError(f"no FMU at {fmu} and no build_fmu.py to build it; pass its path")
+    stale = fmu.is_file() and rebuild_stale and \
+        fmu.stat().st_mtime < max(p.stat().st_mtime for p in sources if p.is_file())
+    if not fmu.is_file() or stale:
+        import importlib.util
+
+        spec = importlib.util.spec_from_file_location("_gearpair_build_fmu", script)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        print(f"gearpair: {'rebuilding stale' if stale else 'building'} {fmu}", file=sys.stderr)
+        mod.build(fmu.parent)
+    return fmu
+
+
+def _codes(description: str) -> dict[str, int]:
+    """Integer codes of an FMU choice parameter from its description ("...: 0 off, 1 nominal")."""
+    tail = description.rsplit(":", 1)[-1]
+    return {name: int(i) for i, name in re.findall(r"(\d+) ([A-Za-z_]+)", tail)}
+
+
+def fmu_start_values(scene: Scene, variables: dict[str, Any]) -> dict[str, Any]:
+    """Start values that set the FMU up as the scene (``variables``: name -> fmpy variable).
+
+    Raises `SceneError` when the scene calls for something the FMU cannot express.
+    """
+    fx = scene.effects
+
+    def refuse(what: str) -> SceneError:
+        return SceneError(f"the FMU cannot express {what}; run this scene with --engine fast "
+                          "or reference")
+
+    def code(param: str, value: str, what: str) -> int:
+        v = variables.get(param)
+        codes = _codes(v.description or "") if v is not None else {}
+        if value not in codes:
+            raise refuse(f"{what} = {value!r} (no such choice of its parameter {param!r})")
+        return codes[value]
+
+    if not scene.solver.static_start:
+        raise refuse("[solver] static_start = false (it always starts from static equilibrium)")
+    start: dict[str, Any] = {f.name: getattr(scene.params, f.name) for f in fields(GearParams)}
+    if fx.stiffness.kind == "table":
+        raise refuse("[effects.stiffness] kind = \"table\"")
+    start["stiffness_model"] = code("stiffness_model", fx.stiffness.kind, "[effects] stiffness")
+    start["friction_law"] = code("friction_law", fx.friction, "[effects] friction")
+    start["sliding"] = code("sliding", fx.sliding, "[effects] sliding")
+    start["stick_tie"] = code("stick_tie", fx.stick_tie, "[effects] stick_tie")
+    start["separation"] = bool(fx.separation)
+    start["v_eps"] = float(fx.v_eps)
+    start["rtol"] = float(scene.solver.rtol)
+    if "engine" in variables:
+        start["engine"] = code("engine", "fast", "the engine")
+    if fx.backlash is not None:
+        if "backlash" not in variables:
+            raise refuse("[effects] backlash (no parameter 'backlash')")
+        start["backlash"] = float(fx.backlash)
+    if fx.dof != "full" or "dof" in variables:
+        if "dof" not in variables:
+            raise refuse(f"[effects] dof = {fx.dof!r} (no parameter 'dof')")
+        start["dof"] = code("dof", fx.dof, "[effects] dof")
+    missing = sorted(k for k in start if k not in variables)
+    if missing:
+        raise refuse(f"the parameter(s) {', '.join(missing)} (not in this FMU)")
+    return start
+
+
+def run_fmu(scene: Scene, fmu_path: str | Path | None = None) -> Trajectory:
+    """Run the scene through the GearPair FMU with fmpy at the scene's communication step.
+
+    The inputs go in as an fmpy input table with one row per communication point, so the
+    FMU holds exactly the values `simulate` holds (fmpy applies the table at each point).
+    """
+    try:
+        import fmpy
+    except ImportError:
+        raise SceneError("--engine fmu needs fmpy: pip install 'gearpair[fmu]'") from None
+    path = Path(fmu_path) if fmu_path is not None else default_fmu()
+    md = fmpy.read_model_description(str(path))
+    variables = {v.name: v for v in md.modelVariables}
+    start = fmu_start_values(scene, variables)
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    h, t_end = scene.step, scene.t_end
+    n = int(math.ceil(t_end / h - 1e-9))
+    grid = np.minimum(h * np.arange(n + 1), t_end)  # fmpy's communication points
+    grid[-1] = t_end
+    fT, fW = scene.inputs.torque, scene.inputs.speed
+    sig = np.zeros(grid.size, dtype=[("time", float), ("torque", float), ("speed", float)])
+    sig["time"] = grid
+    sig["torque"] = [fT(t) for t in grid]
+    sig["speed"] = [fW(t) for t in grid]
+    wall0 = _time.perf_counter()
+    try:
+        res = fmpy.simulate_fmu(str(path), start_time=0.0, stop_time=t_end, output_interval=h,
+                                start_values=start, input=sig, output=outputs)
+    except Exception as exc:  # fmpy reports a refused step as a generic exception
+        raise RuntimeError(f"FMU run of scene {scene.name!r} failed: {exc} (rerun with fmpy's "
+                           "debug_logging for the FMU's message)") from exc
+    wall = _time.perf_counter() - wall0
+    t = np.asarray(res["time"], dtype=float)
+    data: dict[str, np.ndarray] = {"time": t}
+    for name in outputs:
+        data[name] = np.asarray(res[name], dtype=float)
+    # As `simulate` records: row i holds the inputs held over the interval ending at t[i].
+    held = np.concatenate([t[:1], t[:-1]])
+    data["torque"] = np.array([fT(x) for x in held])
+    data["speed"] = np.array([fW(x) for x in held])
+    return Trajectory(data, {"engine": "fmu", "wall_time_s": wall, "fmu": str(path)})
+
+
+# -- reading and validation ----------------------------------------------------------------------
+def _show(v: Any) -> str:
+    """A value as it would be written in TOML."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace('"', '\\"') + '"'
+    if isinstance(v, dict):
+        return "{...}"
+    if isinstance(v, list):
+        return "[...]"
+    return repr(v)
+
+
+def _toml_type(v: Any) -> str:
+    for t, name in ((bool, "boolean"), (int, "integer"), (float, "float"), (str, "string"),
+                    (dict, "table"), (list, "array")):
+        if isinstance(v, t):
+            return name
+    return type(v).__name__
+
+
+def _key(where: str, key: str) -> str:
+    return f"[{where}] {key}" if where else key
+
+
+def _keys(where: str, d: dict, allowed: tuple[str, ...] | list[str]) -> None:
+    unknown = [k for k in d if k not in allowed]
+    if unknown:
+        place = f"[{where}]" if where else "the top level"
+        raise SceneError(f"unknown key {unknown[0]!r} in {place}; allowed: {', '.join(allowed)}")
+
+
+def _table(where: str, key: str, v: Any) -> dict:
+    if not isinstance(v, dict):
+        raise SceneError(f"{_key(where, key)} = {_show(v)}: expected a table, got {_toml_type(v)}")
+    return v
+
+
+def _num(where: str, key: str, v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise SceneError(f"{_key(where, key)} = {_show(v)}: expected a number, "
+                         f"got {_toml_type(v)}")
+    if not math.isfinite(v):
+        raise SceneError(f"{_key(where, key)} = {_show(v)}: must be finite")
+    return float(v)
+
+
+def _int(where: str, key: str, v: Any) -> int:
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise SceneError(f"{_key(where, key)} = {_show(v)}: expected an integer, "
+                         f"got {_toml_type(v)}")
+    return int(v)
+
+
+def _str(where: str, key: str, v: Any) -> str:
+    if not isinstance(v, str):
+        raise SceneError(f"{_key(where, key)} = {_show(v)}: expected a string, "
+                         f"got {_toml_type(v)}")
+    return v
+
+
+def _bool(where: str, key: str, v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise SceneError(f"{_key(where, key)} = {_show(v)}: expected true or false, "
+                         f"got {_toml_type(v)}")
+    return v
+
+
+def _range(where: str, key: str, x: float, lo: float | None, hi: float | None, unit: str,
+           lo_open: bool = False) -> float:
+    """Check ``x`` against a range; the message names the key and what is allowed."""
+    try:
+        check_range(key, x, {"min": lo, "max": hi, "unit": unit, "lo_open": lo_open})
+    except ValueError as exc:
+        raise SceneError(f"[{where}] {exc}" if where else str(exc)) from None
+    return x
+
+
+def _prefixed(where: str, key: str, v: Any, exc: Exception) -> SceneError:
+    """Put the key path in front of a validation message from GearParams or Effects."""
+    msg = str(exc)
+    if msg.startswith(key):
+        return SceneError(f"[{where}] {msg}")
+    return SceneError(f"[{where}] {key} = {_show(v)}: {msg}")
+
+
+def _resolve(base: Path, where: str, key: str, v: Any) -> Path:
+    p = Path(_str(where, key, v)).expanduser()
+    p = p if p.is_absolute() else base / p
+    if not p.is_file():
+        raise SceneError(f"{_key(where, key)} = {_show(v)}: no such file ({p})")
+    return p
+
+
+def _gear(d: dict) -> GearParams:
+    where = "gear"
+    meta = {f.name: f for f in fields(GearParams)}
+    _keys(where, d, [*meta, "pressure_angle_deg"])
+    if "pressure_angle" in d and "pressure_angle_deg" in d:
+        raise SceneError("[gear] give pressure_angle (rad) or pressure_angle_deg, not both")
+    kw: dict[str, Any] = {}
+    for key, v in d.items():
+        if key == "pressure_angle_deg":
+            m = meta["pressure_angle"].metadata
+            deg = _range(where, key, _num(where, key, v), math.degrees(m["min"]),
+                         math.degrees(m["max"]), "deg")
+            kw["pressure_angle"] = math.radians(deg)
+        elif isinstance(meta[key].default, int):
+            kw[key] = _int(where, key, v)
+        else:
+            kw[key] = _num(where, key, v)
+    try:
+        return GearParams(**kw)
+    except ValueError as exc:  # GearParams' messages start with the field name
+        raise SceneError(f"[{where}] {exc}") from None
+
+
+_EFFECT_KEYS = ("stiffness", "separation", "friction", "v_eps", "sliding", "stick_tie",
+                "backlash", "dof")
+
+
+def _stiffness(d: Any, base: Path, params: GearParams) -> StiffnessSpec:
+    where = "effects.stiffness"
+    if isinstance(d, str):
+        if d == "table":
+            raise SceneError('[effects] stiffness = "table" needs a file: write [effects.stiffness]'
+                             ' with kind = "table" and file = "table.csv"')
+        try:
+            return StiffnessSpec(kind=d)
+        except ValueError as exc:
+            raise _prefixed("effects", "stiffness", d, exc) from None
+    d = _table("effects", "stiffness", d)
+    _keys(where, d, ("kind", "file", "scale_to_mean"))
+    kind = _str(where, "kind", d.get("kind", "potential_energy"))
+    scale = _bool(where, "scale_to_mean", d.get("scale_to_mean", True))
+    table = None
+    if kind == "table":
+        if "file" not in d:
+            raise SceneError('[effects.stiffness] kind = "table" needs file = "table.csv" '
+                             "(columns position_m or angle_rad, stiffness_n_per_m)")
+        path = _resolve(base, where, "file", d["file"])
+        from .stiffness import read_table
+
+        try:
+            table = read_table(path, params)
+        except ValueError as exc:
+            raise SceneError(f"[{where}] file = {_show(d['file'])}: {exc}") from None
+    elif "file" in d:
+        raise SceneError(f'[{where}] file is only used with kind = "table" (kind = "{kind}")')
+    try:
+        return StiffnessSpec(kind=kind, table=table, scale_to_mean=scale)
+    except ValueError as exc:
+        key = "kind" if kind != "table" else "file"
+        raise _prefixed(where, key, d.get(key), exc) from None
+
+
+def _effects(d: dict, base: Path, params: GearParams) -> Effects:
+    where = "effects"
+    _keys(where, d, _EFFECT_KEYS)
+    kw: dict[str, Any] = {}
+    for key, v in d.items():
+        if key == "stiffness":
+            kw[key] = _stiffness(v, base, params)
+        elif key == "separation":
+            kw[key] = _bool(where, key, v)
+        elif key in ("v_eps", "backlash"):
+            kw[key] = _num(where, key, v)
+        else:
+            kw[key] = _str(where, key, v)
+    try:
+        return Effects(**kw)
+    except ValueError as exc:  # Effects' messages start with the field (or fields) concerned
+        raise SceneError(f"[{where}] {exc}") from None
+
+
+def _value(where: str, signal_key: str, key: str, v: Any) -> float:
+    """An input value written under ``key`` in the unit of the input ``signal_key`` (torque,
+    speed or speed_rpm), range-checked and converted to SI."""
+    signal, unit, factor = _SIGNALS[signal_key]
+    m = _OP[signal]
+    x = _num(where, key, v)
+    return _range(where, key, x, m["min"] / factor, m["max"] / factor, unit) * factor
+
+
+def _time_value(where: str, key: str, v: Any) -> float:
+    return _range(where, key, _num(where, key, v), 0.0, T_END_MAX, "s")
+
+
+_KINDS = {"constant": ("value",), "ramp": ("from", "to", "t0", "t1"),
+          "step": ("before", "after", "at")}
+
+
+def _schedule(key: str, v: Any) -> Schedule:
+    """The input written under ``[inputs] key``: a number (constant) or a table with kind."""
+    if not isinstance(v, dict):
+        return Constant(_value("inputs", key, key, v))
+    where = f"inputs.{key}"
+    if "kind" not in v:
+        raise SceneError(f"[{where}] needs kind = one of {', '.join(_KINDS)} "
+                         "(or write a number for a constant)")
+    kind = _str(where, "kind", v["kind"])
+    if kind not in _KINDS:
+        raise SceneError(f"[{where}] kind = {_show(kind)} is not allowed; choose one of "
+                         + ", ".join(_KINDS) + " (a CSV series goes in [inputs.csv])")
+    allowed = ("kind", *_KINDS[kind])
+    _keys(where, v, allowed)
+    missing = [k for k in allowed if k not in v]
+    if missing:
+        raise SceneError(f'[{where}] kind = "{kind}" needs {", ".join(missing)}')
+
+    def val(k: str) -> float:
+        return _value(where, key, k, v[k])
+
+    if kind == "constant":
+        return Constant(val("value"))
+    if kind == "ramp":
+        t0, t1 = _time_value(where, "t0", v["t0"]), _time_value(where, "t1", v["t1"])
+        if not t1 > t0:
+            raise SceneError(f"[{where}] t1 = {_show(v['t1'])} must be after "
+                             f"t0 = {_show(v['t0'])}")
+        return Ramp(val("from"), val("to"), t0, t1)
+    return Step(val("before"), val("after"), _time_value(where, "at", v["at"]))
+
+
+def _csv_series(d: Any, base: Path) -> dict[str, Series]:
+    """``[inputs.csv]``: the inputs named in ``columns`` from one CSV file, by scene key."""
+    where = "inputs.csv"
+    d = _table("inputs", "csv", d)
+    _keys(where, d, ("file", "columns"))
+    if "file" not in d:
+        raise SceneError(f"[{where}] needs file = \"inputs.csv\"")
+    path = _resolve(base, where, "file", d["file"])
+    with path.open(newline="") as fh:
+        rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
+    if len(rows) < 2:
+        raise SceneError(f"[{where}] file {path}: needs a header row and at least one data row")
+    header = [h.strip() for h in rows[0]]
+    if "columns" in d:
+        cols = _table(where, "columns", d["columns"])
+        _keys(f"{where}.columns", cols, ("time", *_SIGNALS))
+        cols = {k: _str(f"{where}.columns", k, c) for k, c in cols.items()}
+        cols.setdefault("time", "time")
+    else:  # columns named like the scene keys
+        cols = {k: k for k in ("time", *_SIGNALS) if k in header}
+    if "time" not in cols or cols["time"] not in header:
+        raise SceneError(f"[{where}] file {path}: no time column {cols.get('time', 'time')!r}; "
+                         f"columns: {', '.join(header)}")
+    signals = [k for k in cols if k != "time"]
+    if not signals:
+        raise SceneError(f"[{where}] file {path}: no input column; name them in columns = "
+                         "{ torque = \"...\", speed_rpm = \"...\" } (or speed, rad/s)")
+    for k in signals:
+        if cols[k] not in header:
+            raise SceneError(f"[{where}.columns] {k} = {_show(cols[k])}: no such column in "
+                             f"{path}; columns: {', '.join(header)}")
+    idx = {k: header.index(c) for k, c in cols.items()}
+    values: dict[str, list[float]] = {k: [] for k in cols}
+    for line, row in enumerate(rows[1:], start=2):
+        for k, i in idx.items():
+            try:
+                x = float(row[i])
+            except (ValueError, IndexError):
+                raise SceneError(f"[{where}] file {path}, row {line}, column {cols[k]!r}: "
+                                 "a number expected") from None
+            if not math.isfinite(x):
+                raise SceneError(f"[{where}] file {path}, row {line}, column {cols[k]!r}: "
+                                 f"{row[i]!r} is not finite")
+            values[k].append(x)
+        t = values["time"]
+        if len(t) > 1 and not t[-1] > t[-2]:
+            raise SceneError(f"[{where}] file {path}, row {line}: time {t[-1]:g} s does not "
+                             f"increase (previous row {t[-2]:g} s); time must increase strictly")
+    out = {}
+    for k in signals:
+        signal, unit, factor = _SIGNALS[k]
+        lo, hi = _OP[signal]["min"] / factor, _OP[signal]["max"] / factor
+        bad = [i for i, x in enumerate(values[k]) if not lo <= x <= hi]
+        if bad:
+            raise SceneError(f"[{where}] file {path}, row {bad[0] + 2}, column {cols[k]!r}: "
+                             f"{k} = {values[k][bad[0]]:g} is out of range; allowed "
+                             f"[{lo:g}, {hi:g}] {unit}")
+        out[k] = Series(tuple(values["time"]), tuple(x * factor for x in values[k]),
+                        f"{path.name}:{cols[k]}")
+    return out
+
+
+def _inputs(d: dict, base: Path) -> Inputs:
+    where = "inputs"
+    _keys(where, d, (*_SIGNALS, "csv"))
+    given: dict[str, Schedule] = {}
+    if "csv" in d:
+        given.update(_csv_series(d["csv"], base))
+    for key, v in d.items():
+        if key == "csv":
+            continue
+        if key in given:
+            raise SceneError(f"[inputs] {key} is given twice: as a key and as a column of "
+                             "[inputs.csv]")
+        given[key] = _schedule(key, v)
+    if "speed" in given and "speed_rpm" in given:
+        raise SceneError("[inputs] give speed (rad/s) or speed_rpm (r/min), not both")
+    op = Inputs()
+    return Inputs(torque=given.get("torque", op.torque),
+                  speed=given.get("speed", given.get("speed_rpm", op.speed)))
+
+
+def _solver(d: dict) -> Solver:
+    where = "solver"
+    _keys(where, d, ("engine", "rtol", "step", "static_start"))
+    kw: dict[str, Any] = {}
+    if "engine" in d:
+        kw["engine"] = _str(where, "engine", d["engine"])
+        if kw["engine"] not in ENGINES:
+            raise SceneError(f"[solver] engine = {_show(d['engine'])} is not allowed; choose "
+                             "one of " + ", ".join(ENGINES))
+    if "rtol" in d:
+        kw["rtol"] = _range(where, "rtol", _num(where, "rtol", d["rtol"]), RTOL_MIN, RTOL_MAX,
+                            "")
+    if "step" in d:
+        kw["step"] = _range(where, "step", _num(where, "step", d["step"]), STEP_MIN, STEP_MAX,
+                            "s")
+    if "static_start" in d:
+        kw["static_start"] = _bool(where, "static_start", d["static_start"])
+    return Solver(**kw)
+
+
+def _outputs(d: dict, t_end: float) -> OutputSpec:
+    where = "outputs"
+    _keys(where, d, ("names", "interval", "t_from"))
+    kw: dict[str, Any] = {}
+    if "names" in d:
+        names = d["names"]
+        if not isinstance(names, list):
+            raise SceneError(f"[outputs] names = {_show(names)}: expected an array of strings, "
+                             f"got {_toml_type(names)}")
+        for i, n in enumerate(names):
+            _str(where, f"names[{i}]", n)
+            if n not in OUTPUT_NAMES and n != "time":
+                raise SceneError(f"[outputs] names[{i}] = {_show(n)} is not an output; "
+                                 f"choose from {', '.join(OUTPUT_NAMES)}")
+        kw["names"] = tuple(dict.fromkeys(n for n in names if n != "time"))
+    if "interval" in d:
+        kw["interval"] = _range(where, "interval", _num(where, "interval", d["interval"]),
+                                STEP_MIN, STEP_MAX, "s")
+    if "t_from" in d:
+        t = _num(where, "t_from", d["t_from"])
+        if not 0.0 <= t < t_end:
+            raise SceneError(f"[outputs] t_from = {_show(d['t_from'])} is out of range; allowed "
+                             f"[0, t_end) = [0, {t_end:g}) s")
+        kw["t_from"] = t
+    return OutputSpec(**kw)
+
+
+_TOP = ("name", "description", "t_end", "gear", "effects", "inputs", "solver", "outputs")
+
+
+def parse_scene(doc: dict, base: str | Path = ".", name: str = "scene",
+                path: Path | None = None) -> Scene:
+    """Validate a scene given as a dict (parsed TOML); ``base`` resolves relative files."""
+    base = Path(base)
+    _keys("", doc, _TOP)
+    sec = {k: _table("", k, doc.get(k, {})) for k in ("gear", "effects", "inputs", "solver",
+                                                        "outputs")}
+    t_end = _range("", "t_end", _num("", "t_end", doc.get("t_end", 0.2)), 0.0, T_END_MAX, "s",
+                   lo_open=True)
+    params = _gear(sec["gear"])
+    effects = _effects(sec["effects"], base, params)
+    inputs = _inputs(sec["inputs"], base)
+    solver = _solver(sec["solver"])
+    outputs = _outputs(sec["outputs"], t_end)
+    step = outputs.interval if solver.step is None else solver.step
+    k = outputs.interval / step
+    if step > outputs.interval * (1 + 1e-9) or abs(k - round(k)) > 1e-6 * k:
+        raise SceneError(f"[solver] step = {step:g} s must divide [outputs] interval = "
+                         f"{outputs.interval:g} s a whole number of times")
+    if t_end < step * (1 - 1e-9):
+        raise SceneError(f"t_end = {t_end:g} s is shorter than one step ({step:g} s)")
+    return Scene(
+        name=_str("", "name", doc.get("name", name)), params=params, effects=effects,
+        inputs=inputs, solver=solver, outputs=outputs, t_end=t_end,
+        description=_str("", "description", doc.get("description", "")), path=path)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a TOML scene file.
+
+    Raises
+    ------
+    SceneError
+        (a ``ValueError``) naming the file and the key: unknown keys list the allowed ones,
+        wrong types say the expected type, out-of-range values say the allowed range.
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            doc = tomllib.load(fh)
+    except FileNotFoundError:
+        raise SceneError(f"scene file {path} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    try:
+        return parse_scene(doc, path.resolve().parent, path.stem, path)
+    except SceneError as exc:
+        raise SceneError(f"{path}: {exc}") from None

@@ -74,6 +74,9 @@ OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | Non
      "torque delivered to the gear 2 shaft"),
     ("input_torque_reaction", "Real", "N.m", None, None, None,
      "torque the mesh exerts back on gear 1 about its axis"),
+    ("input_torque", "Real", "N.m", None, None, None,
+     "torque the input side delivers into gear 1 (torque input plus input shaft kr1): the "
+     "load a driving motor feels"),
     ("gear1_speed", "Real", "rad/s", "rpm", None, None,
      "absolute speed of gear 1 (nominal + vibration)"),
     ("gear2_speed", "Real", "rad/s", "rpm", None, None,
@@ -90,7 +93,8 @@ OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | Non
      "number of state switches located in the last communication step"),
 )
 _OUTPUT_FIELDS = ("dte", "mesh_force", "friction_force", "output_torque",
-                  "input_torque_reaction", "gear1_speed", "gear2_speed", "sliding_velocity")
+                  "input_torque_reaction", "input_torque", "gear1_speed", "gear2_speed",
+                  "sliding_velocity")
 _SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
 _ALL_OUTPUTS = tuple(row[0] for row in OUTPUTS)
 
@@ -140,6 +144,9 @@ def interface(gp=None) -> list[dict[str, Any]]:
         m = f.metadata
         add(f.name, "Real", "input", "continuous", m["unit"], display_in.get(f.name),
             m["min"], m["max"], float(f.default), m["doc"] + ", held over each step")
+    add("load_speed", "Real", "input", "continuous", "rad/s", "rpm", -2e4, 2e4, 0.0,
+        "speed of the load at the far end of the load shaft kr2 (gear 2's sense), held over "
+        "each step; used only when the parameter load_speed_input is true")
 
     for name, typ, unit, dunit, lo, hi, doc in OUTPUTS:
         add(name, typ, "output", "discrete" if typ == "Integer" else "continuous", unit, dunit,
@@ -173,6 +180,10 @@ def interface(gp=None) -> list[dict[str, Any]]:
             listing = ", ".join(f"{i} {c}" for i, c in enumerate(codes))
             add(name, "Integer", "parameter", "fixed", None, None, 0, len(codes) - 1,
                 CHOICE_DEFAULTS[name], f"{CHOICE_DOCS[name]}: {listing}")
+    add("load_speed_input", "Boolean", "parameter", "fixed", start=False,
+        description="true: the load shaft kr2/cr2 ends at a load turning at the input "
+        "load_speed (a driveline; power flows both ways); false: it ends at the nominal "
+        "rotation (the paper)")
     add("rtol", "Real", "parameter", "fixed", "1", None, 1e-12, 1e-3, 1e-8,
         "relative tolerance of the engine's integrator")
     return out
@@ -369,10 +380,13 @@ class GearPair(Fmi2Slave):
 
     def _check_inputs(self) -> str | None:
         try:
-            self._gp.engine.check_inputs(self.torque, self.speed)
+            self._gp.engine.check_inputs(self.torque, self.speed, self._load_speed())
         except ValueError as e:
             return f"input refused: {e}"
         return None
+
+    def _load_speed(self) -> float | None:
+        return float(self.load_speed) if self.load_speed_input else None
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         try:
@@ -405,7 +419,9 @@ class GearPair(Fmi2Slave):
         try:
             if not self._stepped:
                 eng.reset(t0=t, torque=torque, speed=speed, static=True)
-            summary = eng.advance(t + h, torque, speed)
+            load_speed = self._load_speed()
+            summary = eng.advance(t + h, torque, speed) if load_speed is None else \
+                eng.advance(t + h, torque, speed, load_speed)
             self._copy_outputs(summary)
             bad = self._outputs_finite()
             if bad is not None:

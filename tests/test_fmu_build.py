@@ -142,7 +142,7 @@ def test_units_ranges_and_flags(md):
     de = md.defaultExperiment
     assert (de.startTime, de.stopTime, de.stepSize) == ("0", "0.5", "0.0001")
 
-    inputs = {v["torque"], v["speed"]}
+    inputs = {v["torque"], v["speed"], v["load_speed"]}
     outputs = [x for x in md.modelVariables if x.causality == "output"]
     assert {u.variable for u in md.outputs} == set(outputs)
     for u in md.outputs:

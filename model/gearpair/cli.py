@@ -173,6 +173,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .sweep import add_parser as add_sweep_parser  # argparse only; dask loads on use
 
     add_sweep_parser(sub)
+    from .bench import add_parser as add_bench_parser  # argparse only; runs load on use
+
+    add_bench_parser(sub)
     return ap
 
 
@@ -182,10 +185,17 @@ def _sweep(args) -> int:
     return sweep_main(args)
 
 
+def _bench(args) -> int:
+    from .bench import main as bench_main
+
+    return bench_main(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return {"modes": _modes, "simulate": _simulate, "sweep": _sweep}[args.cmd](args)
+        return {"modes": _modes, "simulate": _simulate, "sweep": _sweep,
+                "bench": _bench}[args.cmd](args)
     except ValueError as exc:
         print(f"gearpair: error: {exc}", file=sys.stderr)
         return 2

@@ -33,8 +33,11 @@ class Outputs:
         km (delta + b) < 0
     friction_force : N, total tangential tooth force (sliding or static), sum over pairs
     contact_state : 0 separated, 1 slip, 2 stick (any pair stuck), 3 back flank in contact
-    output_torque : N.m, torque delivered to the gear 2 shaft, -rb2 (kr2 u2 + cr2 u2')
+    output_torque : N.m, torque delivered to the gear 2 shaft, -rb2 (kr2 (u2 - a) + cr2 (u2' - a'))
+        with a the load-shaft end (0 unless a load speed drives it)
     input_torque_reaction : N.m, torque the mesh exerts back on gear 1 about its axis
+    input_torque : N.m, torque the input side delivers into gear 1: the torque input plus the
+        input shaft's -rb1 (kr1 u1 + cr1 u1'); what a motor driving the pair must supply
     gear1_speed, gear2_speed : rad/s, absolute shaft speeds (nominal + vibration)
     sliding_velocity : m/s, relative sliding velocity of the pair nearest the pitch point
     """
@@ -46,6 +49,7 @@ class Outputs:
     contact_state: int
     output_torque: float
     input_torque_reaction: float
+    input_torque: float
     gear1_speed: float
     gear2_speed: float
     sliding_velocity: float
@@ -85,8 +89,13 @@ class Engine(ABC):
         under ``torque`` (so a run has no start-up transient from zero)."""
 
     @abstractmethod
-    def advance(self, t_end: float, torque: float, speed: float) -> StepSummary:
-        """Integrate to exactly ``t_end`` with torque (N.m) and speed (rad/s) held."""
+    def advance(self, t_end: float, torque: float, speed: float,
+                load_speed: float | None = None) -> StepSummary:
+        """Integrate to exactly ``t_end`` with torque (N.m) and speed (rad/s) held.
+
+        ``load_speed`` (rad/s, in gear 2's sense of rotation) drives the far end of the load
+        shaft kr2/cr2 when the pair sits between two inertias (a driveline); ``None`` keeps
+        the paper's load shaft, anchored to the nominal rotation Omega1 z1/z2."""
 
     @abstractmethod
     def outputs(self) -> Outputs:
@@ -106,9 +115,12 @@ class Engine(ABC):
         """Current time (s)."""
 
 
-def check_inputs(torque: float, speed: float) -> None:
+def check_inputs(torque: float, speed: float, load_speed: float | None = None) -> None:
     """Raise ``ValueError`` naming the input unless torque and speed are finite and in range."""
-    for name, v, lim, unit in (("torque", torque, 1e6, "N.m"), ("speed", speed, 2e4, "rad/s")):
+    rows = [("torque", torque, 1e6, "N.m"), ("speed", speed, 2e4, "rad/s")]
+    if load_speed is not None:
+        rows.append(("load_speed", load_speed, 2e4, "rad/s"))
+    for name, v, lim, unit in rows:
         try:
             x = float(v)
         except (TypeError, ValueError):

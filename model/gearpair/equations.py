@@ -61,8 +61,8 @@ class Model:
         stiff = MeshStiffness.build(p, geom, effects.stiffness)
         mdiag = np.array([p.m1, p.m1, p.mu1, p.m2, p.m2, p.mu2])
         M = np.diag(mdiag)
-        Kb = np.diag([p.kb1, p.kb1, 0.0, p.kb2, p.kb2, p.kr2])
-        C = np.diag([p.cb1, p.cb1, 0.0, p.cb2, p.cb2, p.cr2])
+        Kb = np.diag([p.kb1, p.kb1, p.kr1, p.kb2, p.kb2, p.kr2])
+        C = np.diag([p.cb1, p.cb1, p.cr1, p.cb2, p.cb2, p.cr2])
         return cls(p, effects, geom, stiff, M, C, Kb, 1.0 / mdiag, np.diag(C).copy(),
                    np.diag(Kb).copy(), p.rb1, p.rb2, p.ratio, p.cm, p.mu)
 
@@ -245,7 +245,8 @@ def static_friction(model: Model, F: np.ndarray, w: np.ndarray, a: np.ndarray,
 
 def evaluate(model: Model, s: float, q: np.ndarray, qd: np.ndarray, torque: float,
              speed: float, active: np.ndarray, separated: bool, dirs: np.ndarray,
-             stuck: np.ndarray, back: bool = False) -> Eval:
+             stuck: np.ndarray, back: bool = False, anchor: tuple[float, float] = (0.0, 0.0)
+             ) -> Eval:
     """Accelerations and forces for one contact state, Eqs. (1)-(4) and (20)-(22).
 
     Parameters
@@ -257,6 +258,8 @@ def evaluate(model: Model, s: float, q: np.ndarray, qd: np.ndarray, torque: floa
     dirs : slip direction (+1/-1) per active pair, used by the stick-slip law
     stuck : boolean mask over active pairs held by static friction
     back : (with ``separated``) the back flanks are in contact: delta < -backlash
+    anchor : (a, a') the far end of the load shaft kr2/cr2 in u2 coordinates (m, m/s): its
+        deviation from the nominal rotation when a load speed drives it (0 in the paper)
 
     With a back flank the mesh spring and damper act on delta + b with the same stiffness law
     and no friction. Torsional: the x and y equations are not integrated (q'' = 0 there).
@@ -278,6 +281,7 @@ def evaluate(model: Model, s: float, q: np.ndarray, qd: np.ndarray, torque: floa
     # Eq. (4) without friction: Ft - C q' - (Kb + Km) q, mesh damping only in contact
     F = -model.c_diag * qd - model.kb_diag * q - G * (km * compression + theta * model.cm * ddelta)
     F[U1] += torque / model.rb1
+    F[U2] += model.p.kr2 * anchor[0] + model.p.cr2 * anchor[1]
     friction = friction_law_forces(model, normal, v, nominal, dirs) if fx.friction != "off" \
         else np.zeros_like(k)
     if fx.friction == "stick_slip":

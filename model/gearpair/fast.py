@@ -158,13 +158,14 @@ N_ST = 7
 J_SEP, J_NPREV, J_NEVTOT = range(3)  # J_SEP: 0 drive flank, 1 apart, 2 back flank
 N_IST = 3
 N_Q = 6
-N_Y = 16  # q, q', and 4 energy quadratures: input, damping loss, friction work, parametric
+N_Y = 18  # q, q', 4 energy quadratures (input, damping loss, friction work, parametric),
+Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held per step)
 # summary of one advance (out)
 O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL = range(5)
 N_OUT = 5
 STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
 # typical magnitudes for the default absolute tolerance (as the reference)
-_SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0)]
+_SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
 
 # Dormand & Prince 5(4): nodes, coupling, error weights (b - b_hat) and the continuous
 # extension of Hairer, Norsett & Wanner (order 4).
@@ -343,6 +344,7 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, di
     sc[S_F + 4] += gt
     sc[S_F + 5] -= gt
     sc[S_F + 2] += torque * irb1
+    sc[S_F + 5] += mp[P_KB + 5] * y[Y_A] + mp[P_C + 5] * y[Y_AD]  # load-shaft end
     ns = 0
     for i in range(nact):
         j = act[i]
@@ -510,11 +512,16 @@ def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, cs,
         dy[m] = y[6 + m]
         dy[6 + m] = sc[S_QDD + m]
     theta = sc[S_THETA]
-    dy[12] = torque * mp[P_IRB1] * y[8]
+    ad = y[Y_AD]
+    dy[12] = torque * mp[P_IRB1] * y[8] - (mp[P_KB + 5] * (y[5] - y[Y_A])
+                                           + mp[P_C + 5] * (y[11] - ad)) * ad
     d = 0.0
-    for m in range(6):
+    for m in range(5):
         d += mp[P_C + m] * y[6 + m] * y[6 + m]
+    d += mp[P_C + 5] * (y[11] - ad) * (y[11] - ad)
     dy[13] = d + theta * mp[P_CM] * sc[S_DDELTA] * sc[S_DDELTA]
+    dy[Y_A] = ad
+    dy[Y_AD] = 0.0
     pf = 0.0
     for i in range(nact):
         f = pw[W_F, i]
@@ -721,11 +728,24 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     # A known boundary can invalidate a stick at once (the entering pair takes load, so
     # mu f_mesh drops below the static friction): release it before integrating.
     e0 = _n_sep_events(mi, sep)
+    retest = False
     for e in range(e0, ng):
         if stuck[act[e - e0]] != 0 and gprev[e] < 0.0:
             _switch(mp, mi, tx, tk, tdk, e, s0, y, torque, speed, act, nact, ist, dirs, stuck,
                     trial, pw, sc, Sm)
             return 1
+        if stuck[act[e - e0]] == 0 and gprev[e] == 0.0:
+            # A slipping pair exactly at v = 0 (a start at rest, standstill): no fall through
+            # zero will ever be seen, so apply Eq. (14) now. If it cannot stick it keeps the
+            # direction the dynamics carry v to, and integration goes on.
+            _switch(mp, mi, tx, tk, tdk, e, s0, y, torque, speed, act, nact, ist, dirs, stuck,
+                    trial, pw, sc, Sm)
+            if stuck[act[e - e0]] != 0:
+                return 1
+            retest = True
+    if retest:
+        _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, sep, dirs,
+                   stuck, pw, sc, Sm, gprev)
     t = t0
     t_knot = t + _next_knot_dt(mp, mi, s0, speed, act, nact)
     h = st[T_H]
@@ -757,6 +777,13 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                                                * (1.0 if speed > 0 else -1.0), speed, act,
                                                nact)
                     continue
+                if last and hh >= 0.0:
+                    # A boundary a rounding error away from the end of the step (a
+                    # communication point on a pair entry): nothing is left to integrate.
+                    _book(mi, st, sep, stuck, tb - t0)
+                    st[T_S] = s0 + v1 * (tb - t0)
+                    st[T_T] = tb
+                    return 0
                 out[O_TFAIL] = t
                 return -1
             si = s0 + v1 * (t + 0.5 * hh - t0)
@@ -951,6 +978,16 @@ def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
     ist[J_NPREV] = nact
 
 
+@jit_inline
+def _kinetic(mp, y):
+    """Kinetic energy 0.5 q'^T M q' (J)."""
+    e = 0.0
+    for m in range(6):
+        if mp[P_MINV + m] > 0.0:
+            e += 0.5 * y[6 + m] * y[6 + m] / mp[P_MINV + m]
+    return e
+
+
 @jit
 def _speed_change(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, torque, speed,
                   h, pw, sc, Sm):
@@ -985,10 +1022,12 @@ def _speed_change(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, t
             S = -(mp[P_MINV] + mp[P_MINV + 3])
         if abs(v) <= mp[P_MU] * abs(pw[W_N, i]) * h * abs(S):
             lam = -v / S
+            ke0 = _kinetic(mp, y)
             y[6] -= tr * mp[P_MINV] * lam
             y[8] += mp[P_MINV + 2] * w2 * lam
             y[9] += tr * mp[P_MINV + 3] * lam
             y[11] += mp[P_MINV + 5] * w5 * lam
+            y[14] += _kinetic(mp, y) - ke0  # the impulse is friction work
         else:
             stuck[j] = 0
             dirs[j] = _sgn(v, 1.0)
@@ -1197,13 +1236,13 @@ class FastEngine(Engine):
         active, _, _, _, k = m.contact(0.0)
         if static and torque != 0.0:
             self._y[:N_Q] = m.static_deflection(torque, float(k.sum()))
+        self._prev[:len(active)] = active  # the set in contact at t0 (as the reference)
         delta = self._y[1] - self._y[4] + self._y[2] + self._y[5]
         self._ist[:] = 0
         self._ist[J_SEP] = m.contact_code(delta)
-        self._ist[J_NPREV] = -1
+        self._ist[J_NPREV] = len(active)
         self._dirs[:] = 1.0
         self._stuck[:] = 0
-        self._prev[:] = 0
         _reset_settle(self._mp, self._mi, self._y, self._st, self._ist, self._dirs, self._stuck,
                       self._act)
         self._last = None
@@ -1241,12 +1280,16 @@ class FastEngine(Engine):
             self._prev[:len(prev)] = np.asarray(prev, dtype=np.int64)
         self._last = state.get("last")
 
-    def advance(self, t_end: float, torque: float, speed: float) -> StepSummary:
-        check_inputs(torque, speed)
+    def advance(self, t_end: float, torque: float, speed: float,
+                load_speed: float | None = None) -> StepSummary:
+        check_inputs(torque, speed, load_speed)
         t_start = self.time
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
         t_stick0, t_sep0 = self._st[T_STICK], self._st[T_SEP]
+        p = self.model.p
+        self._y[Y_AD] = 0.0 if load_speed is None else \
+            -p.rb2 * (float(load_speed) - float(speed) * p.ratio)
         out = self._out
         _advance(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk, self._y,
                  self._st, self._ist, self._dirs, self._stuck, self._trial, self._prev,
@@ -1299,8 +1342,11 @@ class FastEngine(Engine):
             mesh_force=mesh,
             friction_force=float(fr.sum()),
             contact_state=state,
-            output_torque=float(-p.rb2 * (p.kr2 * y[U2] + p.cr2 * y[N_Q + U2])),
+            output_torque=float(-p.rb2 * (p.kr2 * (y[U2] - y[Y_A])
+                                          + p.cr2 * (y[N_Q + U2] - y[Y_AD]))),
             input_torque_reaction=float(reaction),
+            input_torque=float(self._st[T_TORQUE]
+                               - p.rb1 * (p.kr1 * y[U1] + p.cr1 * y[N_Q + U1])),
             gear1_speed=float(speed + y[N_Q + U1] / p.rb1),
             gear2_speed=float(speed * p.ratio - y[N_Q + U2] / p.rb2),
             sliding_velocity=float(pw[W_V, i_near]) if nact else 0.0,
@@ -1313,7 +1359,8 @@ class FastEngine(Engine):
         sc, y = self._sc, self._y
         q, qd = y[:N_Q], y[N_Q:2 * N_Q]
         stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q \
-            + 0.5 * sc[S_KM] * sc[S_COMP] ** 2
+            + 0.5 * sc[S_KM] * sc[S_COMP] ** 2 \
+            + 0.5 * m.p.kr2 * ((y[U2] - y[Y_A]) ** 2 - y[U2] ** 2)
         return {"stored": float(stored), "input": float(y[12]), "damping": float(y[13]),
                 "friction": float(y[14]), "parametric": float(y[15])}
 

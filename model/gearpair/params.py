@@ -66,6 +66,13 @@ class GearParams:
         metadata=_meta("N/m", 0, 1e14, "rotational stiffness of gear 2 on its base circle "
                        "(kr2 * rb2^2 is the load shaft stiffness in N.m/rad)", lo_open=True),
     )
+    kr1: float = field(
+        # Beyond the paper: 0 keeps its torque-driven gear 1. A driveline connects gear 1 to
+        # the motor through this input shaft and takes its torque as the reaction.
+        default=0.0,
+        metadata=_meta("N/m", 0, 1e14, "input shaft stiffness of gear 1 on its base circle "
+                       "(kr1 * rb1^2 in N.m/rad); 0: gear 1 driven by the torque input only"),
+    )
     damping_ratio: float = field(
         default=0.02, metadata=_meta("1", 0, 1, "damping ratio applied to every spring")
     )
@@ -137,6 +144,12 @@ class GearParams:
     def cr2(self) -> float:
         """Rotational damping of gear 2 on its base circle, 2 zeta sqrt(kr2 J2/rb2^2) (N.s/m)."""
         return 2.0 * self.damping_ratio * math.sqrt(self.kr2 * self.mu2)
+
+    @property
+    def cr1(self) -> float:
+        """Input shaft damping of gear 1 on its base circle, 2 zeta sqrt(kr1 J1/rb1^2)
+        (N.s/m)."""
+        return 2.0 * self.damping_ratio * math.sqrt(self.kr1 * self.mu1)
 
     @property
     def cm(self) -> float:

@@ -48,8 +48,10 @@ from .switching import (
 METHODS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "LSODA": LSODA}
 N_Q = 6
 N_E = 4  # energy quadratures: input work, damping loss, friction work, parametric work
+A, AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (m/s, held per step)
+N_Y = 2 * N_Q + N_E + 2
 # Typical magnitudes, for absolute tolerances: deflections ~10 um, velocities ~1 mm/s... 1 m/s
-_SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(N_E, 1.0)]
+_SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(N_E, 1.0), 1e-5, 1e-3]
 
 
 class ReferenceEngine(Engine):
@@ -80,7 +82,7 @@ class ReferenceEngine(Engine):
         self.rtol = rtol
         self.atol = _SCALE * (rtol if atol is None else atol / rtol * rtol)
         if atol is not None:
-            self.atol = np.full(2 * N_Q + N_E, atol)
+            self.atol = np.full(N_Y, atol)
         self.method = method
         if max_step is None:
             from .modal import natural_frequencies
@@ -106,7 +108,7 @@ class ReferenceEngine(Engine):
         self.t = float(t0)
         self.s = 0.0  # mesh travel (m): pair 0 enters contact at t0
         self.torque, self.speed = float(torque), float(speed)
-        self.y = np.zeros(2 * N_Q + N_E)
+        self.y = np.zeros(N_Y)
         active, _, _, _, k = m.contact(self.s)
         if static and torque != 0.0:
             self.y[:N_Q] = m.static_deflection(torque, float(k.sum()))
@@ -154,23 +156,29 @@ class ReferenceEngine(Engine):
         rb1 = m.rb1
         cm = m.cm
         c_diag = m.c_diag
+        kr2, cr2 = m.p.kr2, m.p.cr2
 
         varying = m.stiff.kind not in ("constant", "rectangular")
 
         def fun(t, y):
             q, qd = y[:N_Q], y[N_Q:2 * N_Q]
             s = s0 + rb1 * speed * (t - t0)
+            a, ad = y[A], y[AD]
             ev = evaluate(m, s, q, qd, torque, speed, active, mode.separated, dirs, stuck,
-                          mode.back)
+                          mode.back, (a, ad))
             dkm = float(m.stiff.slope(ev.xi, len(active)).sum()) * rb1 * speed \
                 if varying else 0.0
             out = np.empty_like(y)
             out[:N_Q] = qd
             out[N_Q:2 * N_Q] = ev.qdd
-            out[12] = torque / rb1 * qd[U1]
-            out[13] = c_diag @ (qd * qd) + ev.theta * cm * ev.ddelta**2
+            # the load-shaft end does work -(kr2 (u2 - a) + cr2 (u2' - a')) a'
+            out[12] = torque / rb1 * qd[U1] - (kr2 * (q[U2] - a) + cr2 * (qd[U2] - ad)) * ad
+            out[13] = c_diag @ (qd * qd) + ev.theta * cm * ev.ddelta**2 \
+                + cr2 * ((qd[U2] - ad) ** 2 - qd[U2] ** 2)
             out[14] = float(ev.friction @ (ev.w @ qd))
             out[15] = 0.5 * dkm * ev.compression**2
+            out[A] = ad
+            out[AD] = 0.0
             return out
 
         return fun
@@ -179,10 +187,12 @@ class ReferenceEngine(Engine):
         m = self.model
         s = s0 + m.p.rb1 * self.speed * (t - t0)
         return evaluate(m, s, y[:N_Q], y[N_Q:2 * N_Q], self.torque, self.speed, active,
-                        mode.separated, mode.dirs[active], mode.stuck[active], mode.back)
+                        mode.separated, mode.dirs[active], mode.stuck[active], mode.back,
+                        (y[A], y[AD]))
 
-    def advance(self, t_end: float, torque: float, speed: float) -> StepSummary:
-        check_inputs(torque, speed)
+    def advance(self, t_end: float, torque: float, speed: float,
+                load_speed: float | None = None) -> StepSummary:
+        check_inputs(torque, speed, load_speed)
         t_start = self.t
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
@@ -193,8 +203,14 @@ class ReferenceEngine(Engine):
                                          float(torque), float(speed), active, self.mode,
                                          float(t_end) - t_start)
             self.y = self.y.copy()
+            qd0 = self.y[N_Q:2 * N_Q]
+            # a friction impulse that keeps a stick changes the kinetic energy: friction work
+            self.y[14] += 0.5 * float(qd @ m.M @ qd - qd0 @ m.M @ qd0)
             self.y[N_Q:2 * N_Q] = qd
         self.torque, self.speed = float(torque), float(speed)
+        self.y = self.y.copy()
+        self.y[AD] = 0.0 if load_speed is None else \
+            -m.p.rb2 * (float(load_speed) - float(speed) * m.p.ratio)
         rb1 = m.p.rb1
         extra = (m.geom.xi_pitch,) if m.effects.friction == "nominal" else ()
         s_end = self._travel(t_end)
@@ -280,6 +296,24 @@ class ReferenceEngine(Engine):
                 self.y = self.y.copy()
                 self.y[N_Q:2 * N_Q] = qd
                 return 1, 0, ev0.mesh_force
+        retest = False
+        for i, (kind, j) in enumerate(labels):
+            if kind == "pair" and not mode.stuck[j] and g_prev[i] == 0.0:
+                # A slipping pair exactly at v = 0 (a start at rest): no fall through zero
+                # will be seen, so apply Eq. (14) now (as the fast engine).
+                new, qd = switch(m, labels[i], self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
+                                 self.torque, self.speed, active, mode)
+                self.y = self.y.copy()
+                self.y[N_Q:2 * N_Q] = qd
+                if new.stuck[j]:
+                    self.mode = new
+                    return 1, 0, ev0.mesh_force
+                mode.dirs[:] = new.dirs
+                retest = True
+        if retest:
+            fun = self._rhs(active, mode, t0, s0)
+            solver = solver_cls(fun, t0, self.y, tb, **kw)
+            g_prev, ev0 = values(t0, self.y)
         n_steps = 0
         while True:
             msg = solver.step()
@@ -366,8 +400,9 @@ class ReferenceEngine(Engine):
             mesh_force=mesh,
             friction_force=float(ev.friction.sum()),
             contact_state=state,
-            output_torque=-p.rb2 * (p.kr2 * q[U2] + p.cr2 * qd[U2]),
+            output_torque=-p.rb2 * (p.kr2 * (q[U2] - self.y[A]) + p.cr2 * (qd[U2] - self.y[AD])),
             input_torque_reaction=reaction,
+            input_torque=self.torque - p.rb1 * (p.kr1 * q[U1] + p.cr1 * qd[U1]),
             gear1_speed=self.speed + qd[U1] / p.rb1,
             gear2_speed=self.speed * p.ratio - qd[U2] / p.rb2,
             sliding_velocity=float(ev.v[i_near]) if len(ev.v) else 0.0,
@@ -378,7 +413,8 @@ class ReferenceEngine(Engine):
         m = self.model
         ev, _ = self.evaluate_now()
         q, qd = self.y[:N_Q], self.y[N_Q:2 * N_Q]
-        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q + 0.5 * ev.km * ev.compression**2
+        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q + 0.5 * ev.km * ev.compression**2 \
+            + 0.5 * m.p.kr2 * ((q[U2] - self.y[A]) ** 2 - q[U2] ** 2)
         return {"stored": float(stored), "input": float(self.y[12]),
                 "damping": float(self.y[13]), "friction": float(self.y[14]),
                 "parametric": float(self.y[15])}

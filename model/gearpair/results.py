@@ -25,7 +25,8 @@ Input = float | Callable[[float], float]
 # Units of the recorded columns, for CSV headers and conversions.
 UNITS = {
     "time": "s", "dte": "m", "mesh_force": "N", "friction_force": "N", "contact_state": "1",
-    "output_torque": "N.m", "input_torque_reaction": "N.m", "gear1_speed": "rad/s",
+    "output_torque": "N.m", "input_torque_reaction": "N.m", "input_torque": "N.m",
+    "gear1_speed": "rad/s",
     "gear2_speed": "rad/s", "sliding_velocity": "m/s", "stick_fraction": "1",
     "separation_fraction": "1", "mesh_force_max": "N", "n_events": "1", "torque": "N.m",
     "speed": "rad/s",

@@ -6,10 +6,13 @@ torque or any `GearParams` field) with everything else held. Each point returns
 - the stick ratio ``r_k = t_k / t_t`` and contact-loss ratio ``r_l = t_l / t_t`` (Eqs. (26)-(27);
   Figs. 15, 17, 18) over the kept mesh periods, from the engine's located switching instants;
 - the Poincare section of the DTE (Eq. (3)): one sample per mesh period
-  ``T_m = 2 pi / (z1 Omega1)`` over the kept periods (Fig. 16), with the period of the response
-  in mesh periods (1, 2, ...; 0 none found) and the distinct values;
-- mesh force and DTE statistics, adjacent-period differences and the half-order amplitude of
-  the DTE (Fig. 14), the cost of the point (wall time, worker).
+  ``T_m = 2 pi / (z1 Omega1)`` over the kept periods, at a fixed phase of the period
+  (``section_phase``; Fig. 16), with the period of the response in mesh periods (1, 2, ...;
+  0 none found up to ``max_period``) and the number of distinct values;
+- DTE and mesh force statistics (``mesh_force_min_kn`` is the smallest at the samples,
+  ``steps_per_period`` per period, so it misses short dips; the maximum is the engine's peak),
+  adjacent-period differences, the half-order amplitude of the DTE (Fig. 14), and the cost of
+  the point (wall and CPU time, worker).
 
 Durations are counted in mesh periods: ``transient_periods`` are discarded (at least
 ``transient_time`` seconds: the slowest mode, 32 Hz at damping ratio 0.02, decays with a time
@@ -55,12 +58,12 @@ INPUTS = {"speed_rpm": "r/min", "torque": "N.m"}
 COLUMNS = (
     "index", "param", "value", "status", "error", "attempts", "rtol",
     "speed_rpm", "torque_nm", "mu", "friction", "stick_tie", "sliding",
-    "mesh_period_s", "transient_periods", "kept_periods", "t_end_s",
+    "mesh_period_s", "transient_periods", "kept_periods", "section_phase", "t_end_s",
     "stick_ratio", "contact_loss_ratio", "stick_period_fraction", "loss_period_fraction",
     "dte_mean_um", "dte_min_um", "dte_max_um",
     "mesh_force_min_kn", "mesh_force_mean_kn", "mesh_force_max_kn",
     "poincare_period", "poincare_distinct", "adjacent_diff", "alternate_diff",
-    "half_order_um", "mesh_order_um", "events_per_period", "wall_s", "worker",
+    "half_order_um", "mesh_order_um", "events_per_period", "wall_s", "cpu_s", "worker",
 )
 
 
@@ -92,6 +95,12 @@ class SweepSettings:
     min_periods : floor of the discarded and kept period counts under the cap
     tol : tolerance of the Poincare periodicity test, relative to the mean |DTE|
     max_period : longest period (in mesh periods) the test looks for
+    section_phase : phase of the Poincare section in the mesh period (0: a pair enters
+        contact); the sample nearest it is used. The default lies just before the leaving
+        pair exits (phase 0.75 for Table 1's gears), where the ringing of the 3-4 kHz mesh
+        modes excited at the entry has decayed most: a section inside the ringing turns small
+        changes of the speed into large jumps of the sample and makes a periodic response
+        look scattered in a bifurcation diagram.
     """
 
     torque: float = 3900.0
@@ -111,6 +120,7 @@ class SweepSettings:
     min_periods: int = 16
     tol: float = 1e-3
     max_period: int = 16
+    section_phase: float = 0.7
 
     def __post_init__(self) -> None:
         names = {f.name for f in fields(GearParams)}
@@ -155,17 +165,15 @@ class SweepSettings:
         return n_t, n_k + n_k % 2
 
 
-def _boundary_phases(params: GearParams, friction: str) -> list[float]:
+def _boundary_phases(params: GearParams) -> list[float]:
     """Phases (fractions of a mesh period, from the reset) of the engine's known segment
-    boundaries: a pair entering (0) or leaving contact, and the pitch point (nominal law)."""
+    boundaries: a pair entering (0) or leaving contact, and a pair at the pitch point (a
+    boundary of the nominal law, avoided for every law so all models share one grid)."""
     from .geometry import Geometry
 
     g = Geometry.from_params(params)
     pb = g.base_pitch
-    out = [0.0, math.fmod(g.path_length, pb) / pb]
-    if friction == "nominal":
-        out.append(math.fmod(g.xi_pitch, pb) / pb)
-    return out
+    return [0.0, math.fmod(g.path_length, pb) / pb, math.fmod(g.xi_pitch, pb) / pb]
 
 
 def _blank(index: int, name: str, value: Any, settings: SweepSettings) -> dict[str, Any]:
@@ -187,8 +195,8 @@ def record_periods(params: GearParams, effects: Effects, torque: float, speed: f
     steps ``steps_per_period`` (n) times per mesh period ``T_m`` at the instants
     ``(i + offset) T_m / n``, with ``offset`` in (0, 1) chosen away from the instants where a
     pair enters or leaves contact (`gearpair.analysis.section_offset`; a step ending on one of
-    them up to rounding has made the fast engine fail). Sample ``k n`` of the kept record is
-    thus the Poincare section at phase ``offset / n`` of kept period ``k``.
+    them up to rounding has made the fast engine fail). Sample ``k n + j`` of the kept record
+    is at phase ``(j + offset) / n`` of kept period ``k`` (phase 0: a pair enters contact).
     ``transient_steps`` (default n) is the number of steps per period over the transient: a
     fine record (figures) need not step the transient finely. The step ends only change the
     integration at the level of the tolerance.
@@ -203,7 +211,7 @@ def record_periods(params: GearParams, effects: Effects, torque: float, speed: f
 
     tm = analysis.mesh_period(params.z1, speed)
     n = int(steps_per_period)
-    off = analysis.section_offset(_boundary_phases(params, effects.friction), n)
+    off = analysis.section_offset(_boundary_phases(params), n)
     eng = make_engine(params, effects, "fast", rtol=rtol)
     eng.reset(0.0, torque, speed, static=True)
     m = n_kept * n
@@ -241,14 +249,15 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
               rtol: float | None = None, attempt: int = 1) -> dict[str, Any]:
     """Run one sweep point; never raises (an error becomes ``status = failed``).
 
-    Records the kept periods with `record_periods`; the Poincare sample of a period is its
-    first sample. The ratios are time means of the engine's exact per-step stick and
+    Records the kept periods with `record_periods`; the Poincare sample of a period is the
+    sample nearest ``settings.section_phase`` (its phase is in the ``section_phase``
+    column). The ratios are time means of the engine's exact per-step stick and
     separation fractions over the kept periods (Eqs. (26)-(27)): every kept step has the same
     length, so they are plain means.
 
     Returns the record: the `COLUMNS` plus ``poincare`` (list of DTE samples, m).
     """
-    t_wall = time.perf_counter()
+    t_wall, t_cpu = time.perf_counter(), time.process_time()
     rec = _blank(index, name, value, settings)
     rec["attempts"] = int(attempt)
     rtol = settings.rtol if rtol is None else float(rtol)
@@ -264,7 +273,9 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
                                   r["separation_fraction"])
         if not np.all(np.isfinite(dte)):
             raise ArithmeticError("the DTE is not finite")
-        sec = analysis.poincare_every(dte, n)
+        ph = (np.arange(n) + r["offset"]) / n
+        j0 = int(np.argmin(np.abs(np.mod(ph - settings.section_phase + 0.5, 1.0) - 0.5)))
+        sec = analysis.poincare_every(dte, n, offset=j0)
         tol = settings.tol * (float(np.mean(np.abs(dte))) or 1.0)
         d1, d2 = analysis.adjacent_period_difference(dte, n)
         orders = analysis.order_amplitudes(dte, n, (0.5, 1.0))
@@ -272,6 +283,7 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
         se_per = analysis.per_period(sep, n).sum(axis=1)
         rec.update(
             status="ok", mesh_period_s=tm, transient_periods=n_t, kept_periods=n_k,
+            section_phase=float(ph[j0]),
             t_end_s=float(r["time"][-1]),
             stick_ratio=float(stick.mean()), contact_loss_ratio=float(sep.mean()),
             stick_period_fraction=float(np.mean(st_per > 0)),
@@ -291,7 +303,9 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
     except Exception as exc:  # noqa: BLE001 - every failure becomes a reported record
         rec["status"] = "failed"
         rec["error"] = f"{type(exc).__name__}: {exc}"
+    # wall time over CPU time shows how much a worker waited for a shared core
     rec["wall_s"] = time.perf_counter() - t_wall
+    rec["cpu_s"] = time.process_time() - t_cpu
     return rec
 
 
@@ -335,6 +349,7 @@ class SweepResult:
 
     def summary(self) -> dict[str, Any]:
         busy = float(sum(r["wall_s"] for r in self.records))
+        cpu = float(np.nansum([r.get("cpu_s", math.nan) for r in self.records]))
         return {
             "param": self.name, "unit": sweepable().get(self.name, ""),
             "points": len(self.records), "ok": len(self.records) - len(self.failed),
@@ -344,9 +359,10 @@ class SweepResult:
             "startup_s": round(self.startup_s, 3), "elapsed_s": round(self.elapsed_s, 3),
             "total_s": round(self.startup_s + self.elapsed_s, 3),
             "throughput_points_per_s": round(self.throughput, 4),
-            "point_busy_s": round(busy, 3),
+            "point_busy_s": round(busy, 3), "point_cpu_s": round(cpu, 3),
             "efficiency": round(busy / (self.workers * self.elapsed_s), 3)
             if self.elapsed_s > 0 else None,
+            "cpu_share": round(cpu / busy, 3) if busy > 0 else None,
             "settings": asdict(self.settings), **self.extra,
         }
 
@@ -356,7 +372,8 @@ class SweepResult:
         line = (f"sweep {self.name}: {s['points']} points ({s['ok']} ok, {len(s['failed'])} "
                 f"failed, {s['retried']} retried) in {s['elapsed_s']:.1f} s on {self.workers} "
                 f"worker(s) [{self.scheduler}]: {s['throughput_points_per_s']:.3f} points/s; "
-                f"startup {s['startup_s']:.1f} s; efficiency {s['efficiency']}")
+                f"startup {s['startup_s']:.1f} s; efficiency {s['efficiency']}; the points got "
+                f"{s['cpu_share']} of a core while running")
         for f in s["failed"]:
             line += f"\n  FAILED point {f['index']} ({self.name} = {f['value']}): {f['error']}"
         return line
@@ -368,7 +385,7 @@ class SweepResult:
             wr = csv.writer(fh)
             wr.writerow(COLUMNS)
             for r in self.records:
-                wr.writerow([_fmt(r[c]) for c in COLUMNS])
+                wr.writerow([_fmt(r.get(c, math.nan)) for c in COLUMNS])
         return path
 
     def poincare_to_csv(self, path: str | Path) -> Path:

@@ -179,8 +179,9 @@ def section_offset(boundary_phases, samples_per_period: int, candidates: int = 3
     away from the given phases of the mesh period.
 
     The engines take an instant where a pair enters or leaves contact as a segment boundary;
-    a requested step end that falls on one up to rounding is avoided altogether (it has made
-    the fast engine's step size underflow). Sample instants are ``(j + offset) T_m / n``.
+    a requested step end that falls on one up to rounding is avoided altogether (it made the
+    fast engine's step size underflow before commit 9a2d47c). Sample instants are
+    ``(j + offset) T_m / n``.
     """
     n = int(samples_per_period)
     b = np.mod(np.asarray(list(boundary_phases), dtype=float), 1.0)

@@ -79,7 +79,7 @@ from .engine import (  # noqa: E402
     StepSummary,
     check_inputs,
 )
-from .equations import U1, U2, Model  # noqa: E402
+from .equations import U2, Model  # noqa: E402
 from .params import GearParams  # noqa: E402
 
 
@@ -97,9 +97,14 @@ def _install_locator() -> bool:
         from numba.core import caching
 
         this = os.path.abspath(__file__)
-        with open(this, "rb") as fh:
-            digest = hashlib.sha1(fh.read() + numba.__version__.encode()).hexdigest()[:20]
+
+        def content_digest(path: str) -> str:
+            with open(path, "rb") as fh:
+                return hashlib.sha1(fh.read() + numba.__version__.encode()).hexdigest()[:20]
+
+        digest = content_digest(this)
         where = os.path.join(CACHE_DIR, "gearpair_fast_" + digest)
+        same: dict[str, bool] = {this: True}  # path -> holds this very file (by content)
 
         class _ContentLocator(caching.UserProvidedCacheLocator):
             _gearpair_digest = digest
@@ -110,7 +115,16 @@ def _install_locator() -> bool:
 
             @classmethod
             def from_function(cls, py_func, py_file):
-                if os.path.abspath(py_file) != this:
+                # A host that deletes an extracted FMU and loads the next copy from a new
+                # folder imports this file again under another path: match by content.
+                path = os.path.abspath(py_file)
+                if path not in same:
+                    try:
+                        same[path] = os.path.basename(path) == os.path.basename(this) and \
+                            content_digest(path) == digest
+                    except OSError:
+                        same[path] = False
+                if not same[path]:
                     return None  # other modules keep numba's own locators
                 return super(caching.UserProvidedCacheLocator, cls).from_function(py_func,
                                                                                  py_file)
@@ -942,6 +956,11 @@ def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
     rb1 = mp[P_RB1]
     npairs = mi[I_NP]
     s_mid = st[T_S] + rb1 * speed * (0.5 * (st[T_T] + tb) - st[T_T])
+    nudge = 1e-9 * mp[P_PB]
+    if abs(s_mid - st[T_S]) < nudge and speed != 0.0:
+        # a (near) zero-length segment sits on a boundary: take the set after it, so a step
+        # ending on a pair entry reports the new set whichever side rounding put it
+        s_mid = st[T_S] + (nudge if speed > 0.0 else -nudge)
     nact = _active_at(mp, mi, s_mid, act)
     nprev = ist[J_NPREV]
     if nprev >= 0:  # pairs that left contact are no longer stuck
@@ -1055,6 +1074,9 @@ def _advance(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
     offs[2] = np.fmod(mp[P_XIP], pb)
     s_end = s_start + v1 * (t_end - t_start)
     fwd = speed > 0.0
+    # boundaries a rounding error past the end of the step count as inside it (see _segment)
+    s_tol = abs(v1) * 16.0 * 2.220446049250313e-16 * max(1.0, abs(t_end))
+    s_lim = s_end + s_tol if fwd else s_end - s_tol
     if speed != 0.0:
         for i in range(noff):
             if fwd:
@@ -1076,7 +1098,7 @@ def _advance(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
                 b = kcur[i] * pb + offs[i]
                 if ib < 0 or (fwd and b < bb) or ((not fwd) and b > bb):
                     ib, bb = i, b
-            if (fwd and bb < s_end) or ((not fwd) and bb > s_end):
+            if (fwd and bb < s_lim) or ((not fwd) and bb > s_lim):
                 kcur[ib] += 1 if fwd else -1
                 if bb == last_b:
                     continue
@@ -1111,6 +1133,49 @@ def _eval_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw, s
     _evaluate(mp, mi, tx, tk, tdk, st[T_S], st[T_S], y, st[T_TORQUE], st[T_SPEED], act, nact,
               ist[J_SEP], dirs, stuck, pw, sc, Sm)
     return nact
+
+
+N_O = 10  # outputs: dte, mesh, friction, state, out torque, reaction, in torque, w1, w2, v
+
+
+@jit
+def _outputs_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw, sc, Sm, o):
+    """`Outputs` at the current state into ``o`` (compiled: the FMU reads them every step)."""
+    nact = _eval_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw, sc, Sm)
+    rb1, rb2 = mp[P_RB1], mp[P_RB2]
+    mesh = sc[S_KM] * sc[S_COMP]
+    cs = ist[J_SEP]
+    state = CONTACT_SLIP
+    if cs == 2:
+        state = CONTACT_BACK
+    elif cs == 1:
+        state = CONTACT_SEPARATED
+    else:
+        for i in range(nact):
+            if stuck[act[i]] != 0:
+                state = CONTACT_STICK
+    fr = 0.0
+    fm = 0.0
+    i_near = 0
+    best = np.inf
+    for i in range(nact):
+        fr += pw[W_F, i]
+        fm += pw[W_F, i] * pw[W_S1M, i]
+        d = abs(pw[W_XI, i] - mp[P_XIP])
+        if d < best:
+            best, i_near = d, i
+    damp = sc[S_THETA] * mp[P_CM] * sc[S_DDELTA]
+    speed = st[T_SPEED]
+    o[0] = sc[S_DELTA]
+    o[1] = mesh
+    o[2] = fr
+    o[3] = state
+    o[4] = -rb2 * (mp[P_KB + 5] * (y[5] - y[Y_A]) + mp[P_C + 5] * (y[11] - y[Y_AD]))
+    o[5] = rb1 * (mesh + damp) - fm
+    o[6] = st[T_TORQUE] - rb1 * (mp[P_KB + 2] * y[2] + mp[P_C + 2] * y[8])
+    o[7] = speed + y[8] / rb1
+    o[8] = speed * mp[P_RATIO] - y[11] / rb2
+    o[9] = pw[W_V, i_near] if nact > 0 else 0.0
 
 
 @jit
@@ -1218,6 +1283,8 @@ class FastEngine(Engine):
         self._sc = np.zeros(N_SC)
         self._Sm = np.zeros((n, n + 2))
         self._out = np.zeros(N_OUT)
+        self._o = np.zeros(N_O)
+        self._outputs: Outputs | None = None  # cache, valid until the state changes
         self.reset()
 
     # -- contract ----------------------------------------------------------------------------
@@ -1246,6 +1313,7 @@ class FastEngine(Engine):
         _reset_settle(self._mp, self._mi, self._y, self._st, self._ist, self._dirs, self._stuck,
                       self._act)
         self._last = None
+        self._outputs = None
 
     def get_state(self) -> dict:
         npv = int(self._ist[J_NPREV])
@@ -1279,6 +1347,7 @@ class FastEngine(Engine):
             self._ist[J_NPREV] = len(prev)
             self._prev[:len(prev)] = np.asarray(prev, dtype=np.int64)
         self._last = state.get("last")
+        self._outputs = None
 
     def advance(self, t_end: float, torque: float, speed: float,
                 load_speed: float | None = None) -> StepSummary:
@@ -1287,10 +1356,11 @@ class FastEngine(Engine):
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
         t_stick0, t_sep0 = self._st[T_STICK], self._st[T_SEP]
-        p = self.model.p
+        mp = self._mp
         self._y[Y_AD] = 0.0 if load_speed is None else \
-            -p.rb2 * (float(load_speed) - float(speed) * p.ratio)
+            -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
         out = self._out
+        self._outputs = None
         _advance(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk, self._y,
                  self._st, self._ist, self._dirs, self._stuck, self._trial, self._prev,
                  self._act, float(t_end), float(torque), float(speed), self._offs, self._kcur,
@@ -1318,39 +1388,15 @@ class FastEngine(Engine):
                              self._act, self._pw, self._sc, self._Sm))
 
     def outputs(self) -> Outputs:
-        p, geo = self.model.p, self.model.geom
-        nact = self._now()
-        pw, sc, y = self._pw, self._sc, self._y
-        theta, km, delta = sc[S_THETA], sc[S_KM], sc[S_DELTA]
-        mesh = float(km * sc[S_COMP])
-        if self._ist[J_SEP] == 2:
-            state = CONTACT_BACK
-        elif self._ist[J_SEP]:
-            state = CONTACT_SEPARATED
-        elif any(self._stuck[self._act[i]] for i in range(nact)):
-            state = CONTACT_STICK
-        else:
-            state = CONTACT_SLIP
-        damp = theta * p.cm * sc[S_DDELTA]
-        fr = pw[W_F, :nact]
-        reaction = p.rb1 * (mesh + damp) - float(fr @ pw[W_S1M, :nact])
-        i_near = int(np.argmin(np.abs(pw[W_XI, :nact] - geo.xi_pitch))) if nact else 0
-        speed = float(self._st[T_SPEED])
-        return Outputs(
-            time=self.time,
-            dte=float(delta),
-            mesh_force=mesh,
-            friction_force=float(fr.sum()),
-            contact_state=state,
-            output_torque=float(-p.rb2 * (p.kr2 * (y[U2] - y[Y_A])
-                                          + p.cr2 * (y[N_Q + U2] - y[Y_AD]))),
-            input_torque_reaction=float(reaction),
-            input_torque=float(self._st[T_TORQUE]
-                               - p.rb1 * (p.kr1 * y[U1] + p.cr1 * y[N_Q + U1])),
-            gear1_speed=float(speed + y[N_Q + U1] / p.rb1),
-            gear2_speed=float(speed * p.ratio - y[N_Q + U2] / p.rb2),
-            sliding_velocity=float(pw[W_V, i_near]) if nact else 0.0,
-        )
+        if self._outputs is None:
+            o = self._o
+            _outputs_now(self._mp, self._mi, self._tx, self._tk, self._tdk, self._y, self._st,
+                         self._ist, self._dirs, self._stuck, self._prev, self._act, self._pw,
+                         self._sc, self._Sm, o)
+            self._outputs = Outputs(float(self._st[T_T]), float(o[0]), float(o[1]),
+                                    float(o[2]), int(o[3]), float(o[4]), float(o[5]),
+                                    float(o[6]), float(o[7]), float(o[8]), float(o[9]))
+        return self._outputs
 
     def energy(self) -> dict:
         """Stored energy and the integrated power terms so far (J), as the reference."""

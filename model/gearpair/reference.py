@@ -214,7 +214,11 @@ class ReferenceEngine(Engine):
         rb1 = m.p.rb1
         extra = (m.geom.xi_pitch,) if m.effects.friction == "nominal" else ()
         s_end = self._travel(t_end)
-        bounds_s = m.geom.boundaries(self.s, s_end, extra) if speed != 0.0 else np.zeros(0)
+        # boundaries a rounding error past the end of the step count as inside it (the step
+        # then reports the set after them, as the fast engine)
+        s_lim = s_end + math.copysign(abs(rb1 * speed) * 16 * np.finfo(float).eps
+                                      * max(1.0, abs(t_end)), speed)
+        bounds_s = m.geom.boundaries(self.s, s_lim, extra) if speed != 0.0 else np.zeros(0)
         t_bounds = [self.t + (b - self.s) / (rb1 * speed) for b in bounds_s] + [t_end]
         stick0, sep0 = self.t_stick, self.t_sep
         fmax = -math.inf
@@ -223,6 +227,9 @@ class ReferenceEngine(Engine):
         for tb in t_bounds:
             tb = min(max(tb, self.t), t_end)
             s_mid = self._travel(0.5 * (self.t + tb))
+            nudge = 1e-9 * m.geom.base_pitch
+            if abs(s_mid - self.s) < nudge and speed != 0.0:  # zero-length: set after it
+                s_mid = self.s + math.copysign(nudge, speed)
             active, _, _, _, _ = m.contact(s_mid)
             # A pair entering contact takes its slip direction from its sliding velocity.
             self.mode, qd = settle_directions(m, self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],

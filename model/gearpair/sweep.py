@@ -195,8 +195,9 @@ def record_periods(params: GearParams, effects: Effects, torque: float, speed: f
     steps ``steps_per_period`` (n) times per mesh period ``T_m`` at the instants
     ``(i + offset) T_m / n``, with ``offset`` in (0, 1) chosen away from the instants where a
     pair enters or leaves contact (`gearpair.analysis.section_offset`; a step ending on one of
-    them up to rounding has made the fast engine fail). Sample ``k n + j`` of the kept record
-    is at phase ``(j + offset) / n`` of kept period ``k`` (phase 0: a pair enters contact).
+    them up to rounding made the fast engine fail before commit 9a2d47c). Sample ``k n + j``
+    of the kept record is at phase ``(j + offset) / n`` of kept period ``k`` (phase 0: a pair
+    enters contact).
     ``transient_steps`` (default n) is the number of steps per period over the transient: a
     fine record (figures) need not step the transient finely. The step ends only change the
     integration at the level of the tolerance.

@@ -7,11 +7,11 @@ measures in one run, side by side on the same machine:
   no friction, sliding (Coulomb friction in the nominal direction, no stick) and stick-slip.
   Every method starts from the static equilibrium at t = 0 and records DTE and mesh force on
   the same output grid; the error is the largest deviation from a tight reference divided by
-  the reference's largest magnitude, the cost the wall time per simulated second. Methods:
-  the fast core (`gearpair.fast.FastEngine`) at several tolerances; scipy's RK45, DOP853,
-  Radau and LSODA, run as `gearpair.reference.ReferenceEngine` (scipy's ``OdeSolver`` classes,
-  which ``solve_ivp`` drives, stepped segment by segment over the same physics); the FMU
-  through fmpy at communication steps 1e-5, 1e-4 and 1e-3 s.
+  the reference's largest magnitude, the cost the wall time (and the CPU time) per simulated
+  second. Methods: the fast core (`gearpair.fast.FastEngine`) at several tolerances; scipy's
+  RK45, DOP853, Radau and LSODA, run as `gearpair.reference.ReferenceEngine` (scipy's
+  ``OdeSolver`` classes, which ``solve_ivp`` drives, stepped segment by segment over the same
+  physics); the FMU through fmpy at communication steps 1e-5, 1e-4 and 1e-3 s.
 - **equal accuracy**: per method the cheapest setting with DTE error <= 1e-6, and the ratio
   fastest scipy method / fast core.
 - **FMU cost** at a 1e-3 s step against the core at the same step and the plumbing floor (the
@@ -33,15 +33,18 @@ counted (it is reported apart).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import importlib.util
 import json
 import math
 import os
 import platform
+import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
@@ -63,6 +66,7 @@ TARGET_FMU_FACTOR = 1.2  # FMU <= factor * core + floor at a 1e-3 s step
 TARGET_STICK_SLIP = 0.1  # s of wall time per simulated second
 TARGET_MEMORY_MB = 500.0
 TARGET_LADDER = 10.0  # torsional constant stiffness at least this much cheaper than stick-slip
+SCIPY_MAX_EVENTS = 1000  # switches per communication step before a scipy run counts as stalled
 LADDER = (
     ("torsional, constant stiffness", dict(dof="torsional", stiffness="constant",
                                            friction="off")),
@@ -92,6 +96,8 @@ class Settings:
     fast_steps : communication steps of the fast core: ``dt`` (the common grid, the row
         ``fast``) and coarser ones (rows ``fast (step h)``, sampled every h)
     scipy_rtols : per scipy method, its tolerances
+    run_budget : wall-time limit (s) of one engine run of the work-precision table; a run
+        that exceeds it is reported as failed
     ref_rtol : tolerance of the reference (fast core)
     check_horizon : simulated time of the cross-check of the reference against scipy DOP853
         at ``ref_rtol``; 0 skips it
@@ -113,6 +119,7 @@ class Settings:
     dt: float = 1e-4
     fast_rtols: tuple[float, ...] = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
     fast_steps: tuple[float, ...] = (1e-4, 1e-3)
+    run_budget: float = 300.0
     scipy_rtols: tuple[tuple[str, tuple[float, ...]], ...] = (
         ("RK45", (1e-5, 1e-6, 1e-7)), ("DOP853", (1e-5, 1e-6, 1e-7)),
         ("Radau", (1e-4, 1e-5)), ("LSODA", (1e-5, 1e-6)))
@@ -142,7 +149,7 @@ QUICK = Settings(
     scipy_rtols=(("RK45", (1e-5, 1e-6)), ("DOP853", (1e-5, 1e-6)), ("Radau", (1e-5,)),
                  ("LSODA", (1e-5,))),
     check_horizon=0.0005, check_regimes=("stick_slip",), step_horizon=0.02, calls=150,
-    repeats=1, cost_t_end=0.01, startup=False)
+    repeats=1, cost_t_end=0.01, startup=False, run_budget=60.0)
 FULL = Settings(
     name="full", windows=tuple((r, 0.02) for r in REGIMES),
     fast_rtols=(1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11),
@@ -244,6 +251,7 @@ NEVER = Timing(math.inf, math.inf)
 
 
 def clock() -> Timing:
+    """Now, on both clocks (subtract two readings for a `Timing`)."""
     return Timing(time.perf_counter(), time.process_time())
 
 
@@ -338,6 +346,32 @@ _NO_ERRORS = dict.fromkeys(("err_dte", "err_force", "err_dte_horizon", "err_forc
                            math.nan)
 
 
+class BudgetExceeded(RuntimeError):
+    """A benchmark run took longer than its budget."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None):
+    """Raise `BudgetExceeded` in the block after ``seconds`` of wall time (POSIX main thread
+    only; elsewhere no limit)."""
+    usable = seconds and hasattr(signal, "setitimer") \
+        and threading.current_thread() is threading.main_thread()
+    if not usable:
+        yield
+        return
+
+    def alarm(signum, frame):
+        raise BudgetExceeded(f"stopped after the run budget of {seconds:g} s of wall time")
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
 def _row(regime, method, setting, rtol, step, horizon, took: Timing, errs,
          error=None) -> dict:
     return {"regime": regime, "method": method, "setting": setting, "rtol": rtol,
@@ -383,9 +417,12 @@ def _engine_row(regime: str, method: str, rtol: float, horizon: float, s: Settin
         if step != s.dt:
             method = f"fast (step {step:g})"
     else:
-        engine, opts, repeats = "reference", {"rtol": rtol, "method": method}, 1
+        # a stall (switches chattering at one instant) fails fast instead of running on
+        engine, repeats = "reference", 1
+        opts = {"rtol": rtol, "method": method, "max_events": SCIPY_MAX_EVENTS}
     try:
-        took, sig = engine_run(regime, engine, horizon, step, repeats, **opts)
+        with time_limit(s.run_budget):
+            took, sig = engine_run(regime, engine, horizon, step, repeats, **opts)
     except (RuntimeError, ArithmeticError, ValueError) as exc:
         return _row(regime, method, f"rtol {rtol:g}", rtol, step, horizon, _FAILED,
                     _NO_ERRORS, f"{type(exc).__name__}: {exc}")
@@ -479,7 +516,7 @@ t_imp = time.perf_counter()
 import fmpy
 from fmpy.fmi2 import FMU2Slave
 md = fmpy.read_model_description(job["fmu"])
-unzip = fmpy.extract(job["fmu"])
+unzip = fmpy.extract(job["fmu"], unzipdir=os.path.join(os.getcwd(), "extracted"))
 var = {v.name: v for v in md.modelVariables}
 out = {"import_s": time.perf_counter() - t_imp}
 
@@ -1007,12 +1044,16 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
     result.update(work_precision=rows, core_steps=core, fmu=None, startup=None)
     if s.fmu:
         with tempfile.TemporaryDirectory(prefix="gearpair_bench_fmu_") as tmp:
-            fmu, noop = build_fmus(fmu_dir or tmp)
-            fm = fmu_measurements(s, refs, fmu, noop, core, progress)
-            result["fmu"] = {"steps": fm["steps"], "calls": fm["calls"]}
-            rows.extend(fm["rows"])
-            if s.startup:
-                result["startup"] = fmu_startup(fmu, progress)
+            try:  # a failing FMU section is reported, the other sections still run
+                fmu, noop = build_fmus(fmu_dir or tmp)
+                fm = fmu_measurements(s, refs, fmu, noop, core, progress)
+                result["fmu"] = {"steps": fm["steps"], "calls": fm["calls"]}
+                rows.extend(fm["rows"])
+                if s.startup:
+                    result["startup"] = fmu_startup(fmu, progress)
+            except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+                result["fmu_error"] = f"{type(exc).__name__}: {exc}"
+                progress(f"FMU section failed: {result['fmu_error']}")
     result["equal_accuracy"] = equal_accuracy(rows)
     result["cost"] = cost_table(s, progress=progress)
     result["memory"] = memory_peak(s.memory_t_end) if s.memory else None
@@ -1147,6 +1188,8 @@ def report(result: dict) -> str:
         if c["error"]:
             out.append(f"  failed: {c['error']}")
         out.append("")
+    if result.get("fmu_error"):
+        out += [f"FMU section failed: {result['fmu_error']}", ""]
     st = result.get("startup")
     if st:
         out.append("FMU first instantiation + initialization + first step (fresh process):")
@@ -1266,7 +1309,23 @@ def add_parser(sub) -> argparse.ArgumentParser:
     return p
 
 
+def jsonable(x):
+    """``x`` with numpy scalars as Python numbers and NaN/inf as None (strict JSON)."""
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    return x
+
+
 def settings_from(args: argparse.Namespace) -> Settings:
+    """The `Settings` of the command line options (a preset, then the overrides)."""
     s = QUICK if args.quick else FULL if args.full else DEFAULT
     if args.memory:
         s = replace(s, memory=True)
@@ -1304,7 +1363,7 @@ def main(argv: list[str] | argparse.Namespace | None = None) -> int:
             return 1
         result["plot"] = args.plot
     if args.json:
-        print(json.dumps(result, indent=1, default=float))
+        print(json.dumps(jsonable(result), indent=1, allow_nan=False))
     else:
         print(report(result))
         if args.plot:

@@ -167,10 +167,11 @@ N_PW = 11
 S_DELTA, S_DDELTA, S_KM, S_THETA, S_F, S_QDD, S_COMP = 0, 1, 2, 3, 4, 10, 16
 N_SC = 17
 # continuous engine state (st) and discrete state (ist)
-T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED = range(7)
-N_ST = 7
-J_SEP, J_NPREV, J_NEVTOT = range(3)  # J_SEP: 0 drive flank, 1 apart, 2 back flank
-N_IST = 3
+T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL = range(8)
+N_ST = 8
+# J_SEP: 0 drive flank, 1 apart, 2 back flank; J_REL: 1 + the pair released at time T_REL
+J_SEP, J_NPREV, J_NEVTOT, J_REL = range(4)
+N_IST = 4
 N_Q = 6
 N_Y = 18  # q, q', 4 energy quadratures (input, damping loss, friction work, parametric),
 Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held per step)
@@ -634,6 +635,7 @@ def _switch(mp, mi, tx, tk, tdk, label, s, y, torque, speed, act, nact, ist, dir
                   sc, Sm)
         stuck[j] = 0
         dirs[j] = _sgn(pw[W_LAMEX, i], 1.0)
+        ist[J_REL] = j + 1  # the caller records the time in st[T_REL]
         return
     # Eq. (14) stick test with the pair tentatively stuck
     for jj in range(mi[I_NP]):
@@ -747,8 +749,10 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
         if stuck[act[e - e0]] != 0 and gprev[e] < 0.0:
             _switch(mp, mi, tx, tk, tdk, e, s0, y, torque, speed, act, nact, ist, dirs, stuck,
                     trial, pw, sc, Sm)
+            st[T_REL] = t0
             return 1
-        if stuck[act[e - e0]] == 0 and gprev[e] == 0.0:
+        if stuck[act[e - e0]] == 0 and gprev[e] == 0.0 and not (
+                ist[J_REL] == act[e - e0] + 1 and st[T_REL] == t0):
             # A slipping pair exactly at v = 0 (a start at rest, standstill): no fall through
             # zero will ever be seen, so apply Eq. (14) now. If it cannot stick it keeps the
             # direction the dynamics carry v to, and integration goes on.
@@ -922,8 +926,11 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             _book(mi, st, sep, stuck, te - t0)
             st[T_S] = s0 + v1 * (te - t0)
             st[T_T] = te
+            ist[J_REL] = 0
             _switch(mp, mi, tx, tk, tdk, best_e, st[T_S], y, torque, speed, act, nact, ist,
                     dirs, stuck, trial, pw, sc, Sm)
+            if ist[J_REL] != 0:
+                st[T_REL] = te
             return 1
         for m in range(N_Y):
             y[m] = ynew[m]

@@ -79,6 +79,7 @@ class ReferenceEngine(Engine):
             raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
         self.model = Model.build(params, effects)
         self._prev_active = None  # pairs in contact in the last segment (set by reset)
+        self._released = None  # (pair, time) of the last release of a stick
         self.rtol = rtol
         self.atol = _SCALE * (rtol if atol is None else atol / rtol * rtol)
         if atol is not None:
@@ -298,6 +299,7 @@ class ReferenceEngine(Engine):
         # mu f_mesh drops below the static friction): release it before integrating.
         for i, (kind, j) in enumerate(labels):
             if kind == "pair" and mode.stuck[j] and g_prev[i] < 0.0:
+                self._released = (j, self.t)
                 self.mode, qd = switch(m, labels[i], self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
                                        self.torque, self.speed, active, mode)
                 self.y = self.y.copy()
@@ -305,7 +307,8 @@ class ReferenceEngine(Engine):
                 return 1, 0, ev0.mesh_force
         retest = False
         for i, (kind, j) in enumerate(labels):
-            if kind == "pair" and not mode.stuck[j] and g_prev[i] == 0.0:
+            if kind == "pair" and not mode.stuck[j] and g_prev[i] == 0.0 \
+                    and self._released != (j, self.t):  # not the pair just released here
                 # A slipping pair exactly at v = 0 (a start at rest): no fall through zero
                 # will be seen, so apply Eq. (14) now (as the fast engine).
                 new, qd = switch(m, labels[i], self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
@@ -363,6 +366,9 @@ class ReferenceEngine(Engine):
                 self.s = s0 + m.p.rb1 * self.speed * (te - t0)
                 self.t = te
                 qd = ye[N_Q:2 * N_Q]
+                kind, j = labels[best_i]
+                if kind == "pair" and mode.stuck[j]:
+                    self._released = (j, te)
                 self.mode, qd = switch(m, labels[best_i], self.s, ye[:N_Q], qd, self.torque,
                                        self.speed, active, mode)
                 self.y = ye.copy()

@@ -1,0 +1,159 @@
+"""The benchmark script (gearpair.bench) on its quick settings: structure and physics only.
+
+Wall times are never asserted (the machine is shared). One quick run (about 20 s once the
+fast engine's kernels are cached; the first run on a machine compiles them) feeds every test.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gearpair import bench, cli
+
+HAS_FMU = all(importlib.util.find_spec(m) is not None for m in ("pythonfmu", "fmpy"))
+ENGINE_METHODS = ("fast", "fast (step 0.001)", *bench.SCIPY_METHODS)
+
+
+@pytest.fixture(scope="module")
+def quick() -> dict:
+    return bench.run(replace(bench.QUICK, fmu=HAS_FMU))
+
+
+def test_relative_error_on_the_reference_grid():
+    t = np.arange(11) * 1e-4
+    ref = {"time": t, "dte": np.sin(t * 1e3), "dt": 1e-4}
+    x = ref["dte"].copy()
+    x[4] += 1e-3
+    scale = np.max(np.abs(ref["dte"]))
+    assert bench.relative_error(t, x, ref, "dte") == pytest.approx(1e-3 / scale)
+    # only samples up to t_max count, and samples between grid points are skipped
+    assert bench.relative_error(t, x, ref, "dte", t_max=3e-4) == 0.0
+    both = np.r_[t, t + 0.5e-4]
+    assert bench.relative_error(both, np.r_[ref["dte"], x + 1.0], ref, "dte") == 0.0
+    with pytest.raises(ValueError, match="no common samples"):
+        bench.relative_error(t[:3] + 0.5e-4, x[:3], ref, "dte")
+
+
+def test_every_method_and_regime_has_a_row(quick):
+    rows = quick["work_precision"]
+    methods = ENGINE_METHODS + (("FMU",) if HAS_FMU else ())
+    for regime in bench.REGIMES:
+        for method in methods:
+            mine = [r for r in rows if r["regime"] == regime and r["method"] == method]
+            assert mine, (regime, method)
+            for r in mine:
+                assert r["error"] is None, r
+                assert np.isfinite([r["wall_per_sim_s"], r["cpu_per_sim_s"], r["err_dte"],
+                                    r["err_force"]]).all()
+    assert {e["regime"] for e in quick["equal_accuracy"]} == set(bench.REGIMES)
+    for e in quick["equal_accuracy"]:
+        assert set(e["best"]) >= set(ENGINE_METHODS)
+        assert set(e["best_cpu"]) == set(e["best"])
+
+
+def test_fast_core_converges_as_rtol_tightens(quick):
+    for regime in bench.REGIMES:
+        rows = sorted((r for r in quick["work_precision"]
+                       if r["regime"] == regime and r["method"] == "fast"),
+                      key=lambda r: -r["rtol"])
+        assert len(rows) >= 2
+        err = [r["err_dte_horizon"] for r in rows]
+        assert all(b < a for a, b in zip(err, err[1:], strict=False)), (regime, err)
+        assert err[-1] < 1e-8
+        force = [r["err_force_horizon"] for r in rows]
+        assert all(b < a for a, b in zip(force, force[1:], strict=False)), (regime, force)
+
+
+def test_methods_agree_with_the_reference_to_their_tolerance(quick):
+    for r in quick["work_precision"]:
+        bound = 1000 * r["rtol"]
+        assert r["err_dte"] <= bound and r["err_force"] <= bound, r
+        assert r["err_dte_horizon"] <= bound, r
+    for c in quick["reference"]["cross_check"]:
+        # fast core and scipy DOP853 at the reference tolerance: the reference is not biased
+        assert c["diff_dte"] < 1e-9 and c["diff_force"] < 1e-9, c
+
+
+def test_step_costs_fmu_and_calls(quick):
+    regimes = {c["regime"] for c in quick["core_steps"]}
+    assert regimes == set(bench.REGIMES)
+    assert all(c["error"] is None and c["wall_per_sim_s"] > 0 for c in quick["core_steps"])
+    if not HAS_FMU:
+        pytest.skip("pythonfmu/fmpy missing")
+    fm = quick["fmu"]
+    assert {st["regime"] for st in fm["steps"]} == set(bench.REGIMES)
+    for st in fm["steps"]:
+        assert st["error"] is None
+        assert st["fmu_per_sim_s"] > 0 and st["floor_per_sim_s"] > 0
+        assert st["allowed_per_sim_s"] == pytest.approx(
+            bench.TARGET_FMU_FACTOR * st["core_per_sim_s"] + st["floor_per_sim_s"])
+        assert st["allowed_per_sim_s_cpu"] > 0 and isinstance(st["met_cpu"], bool)
+    calls = fm["calls"]
+    assert calls["error"] is None
+    for key in ("gearpair", "noop", "engine"):
+        assert calls[key + "_s"] > 0 and calls[key + "_cpu_s"] > 0
+
+
+def test_cost_table_covers_scenes_and_ladder(quick):
+    cost = quick["cost"]
+    shipped = {p.stem for p in bench.SCENES_DIR.glob("*.toml")}
+    assert {r["scene"] for r in cost["scenes"]} == shipped
+    assert all(r["error"] is None and r["wall_per_sim_s"] > 0 for r in cost["scenes"])
+    assert [r["rung"] for r in cost["ladder"]] == [label for label, _ in bench.LADDER]
+    assert cost["ladder"][-1]["ratio_wall_step_1e-3"] == pytest.approx(1.0)
+    assert set(cost["checks"]) == {f"{c}_{r}" for c in ("wall", "cpu")
+                                   for r in ("step_1e-3", "out_1e-4")}
+    for row in cost["ladder"]:
+        assert row["error"] is None and row["cpu_step_1e-3"] > 0
+
+
+def test_report_json_and_targets(quick):
+    text = bench.report(quick)
+    for word in (*bench.REGIMES, "Equal accuracy", "Effect ladder", "Targets",
+                 quick["machine"]["cpu"]):
+        assert word in text
+    back = json.loads(json.dumps(bench.jsonable(quick), allow_nan=False))
+    assert back["settings"]["name"] == "quick"
+    odd = {"a": [np.float64("nan"), np.int64(2), (1.5,)]}
+    assert bench.jsonable(odd) == {"a": [None, 2, [1.5]]}
+    kinds = " ".join(t["target"] for t in quick["targets"])
+    assert "scipy" in kinds and "stick-slip" in kinds and "ladder" in kinds
+
+
+def test_plot(quick, tmp_path):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "wp.png"
+    bench.plot(quick, out)
+    assert out.stat().st_size > 10_000
+    bench.plot(quick, tmp_path / "cpu.png", clock="cpu")
+
+
+def test_cli_bench_delegates(quick, monkeypatch, capsys, tmp_path):
+    seen = {}
+
+    def fake_run(s, progress=None, fmu_dir=None):
+        seen["settings"] = s
+        return quick
+
+    monkeypatch.setattr(bench, "run", fake_run)
+    assert cli.main(["bench", "--quick", "--json", "--no-fmu", "--step-horizon", "0.05"]) == 0
+    assert seen["settings"].name == "quick" and not seen["settings"].fmu
+    assert seen["settings"].step_horizon == 0.05
+    assert json.loads(capsys.readouterr().out)["settings"]["name"] == "quick"
+    assert cli.main(["bench", "--full", "--no-startup"]) == 0
+    assert seen["settings"].name == "full" and seen["settings"].memory
+    assert not seen["settings"].startup
+    assert "Targets" in capsys.readouterr().out
+    assert cli.main(["bench", "--step-horizon", "-1"]) == 2
+
+
+def test_memory_peak_of_a_short_run():
+    mem = bench.memory_peak(t_end=0.01, dt=1e-4)
+    assert mem["samples"] == 101
+    assert 0 < mem["baseline_rss_mb"] <= mem["peak_rss_mb"]
+    assert mem["met"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 import importlib
 import io
 import math
+import operator
 import os
 import pickle
 import sys
@@ -234,6 +235,9 @@ class GearPair(Fmi2Slave):
         self._warn_foreign_package()
         self._spec = interface(self._gp)
         self._param_names = tuple(v["name"] for v in self._spec if v["causality"] == "parameter")
+        self._get_params = operator.attrgetter(*self._param_names)
+        self._get_shown = operator.attrgetter(*_ALL_OUTPUTS)
+        self._get_finite = operator.attrgetter(*(_OUTPUT_FIELDS + _SUMMARY_FIELDS))
         for v in self._spec:
             start = v["start"]
             if v["type"] == "Integer":
@@ -269,7 +273,8 @@ class GearPair(Fmi2Slave):
                      f"not the copy in the FMU resources {res}", Fmi2Status.warning)
 
     def _param_values(self) -> tuple:
-        return tuple(getattr(self, n) for n in self._param_names)
+        # checked on every step (fixed parameters must not change): one C-level call
+        return self._get_params(self)
 
     def _build_engine(self):
         """Validate the parameters and build the engine. Raises ValueError with a message
@@ -330,8 +335,11 @@ class GearPair(Fmi2Slave):
 
     def _copy_outputs(self, summary=None) -> None:
         o = self._engine.outputs()
-        for name in _OUTPUT_FIELDS:
-            setattr(self, name, float(getattr(o, name)))
+        self.dte, self.mesh_force, self.friction_force = o.dte, o.mesh_force, o.friction_force
+        self.output_torque, self.input_torque_reaction = o.output_torque, o.input_torque_reaction
+        self.input_torque, self.gear1_speed, self.gear2_speed = \
+            o.input_torque, o.gear1_speed, o.gear2_speed
+        self.sliding_velocity = o.sliding_velocity
         self.contact_state = int(o.contact_state)
         if summary is None:  # no step yet: the figures describe the instant t0
             self.stick_fraction = 1.0 if self.contact_state == 2 else 0.0
@@ -339,13 +347,17 @@ class GearPair(Fmi2Slave):
             self.mesh_force_max = self.mesh_force
             self.n_events = 0
         else:
-            for name in _SUMMARY_FIELDS:
-                setattr(self, name, float(getattr(summary, name)))
+            self.stick_fraction = float(summary.stick_fraction)
+            self.separation_fraction = float(summary.separation_fraction)
+            self.mesh_force_max = float(summary.mesh_force_max)
             self.n_events = int(summary.n_events)
 
     def _outputs_finite(self) -> str | None:
-        for name in _OUTPUT_FIELDS + _SUMMARY_FIELDS:
-            if not math.isfinite(getattr(self, name)):
+        vals = self._get_finite(self)
+        if math.isfinite(sum(vals)):  # one check on the usual path (inf - inf is nan)
+            return None
+        for name, v in zip(_OUTPUT_FIELDS + _SUMMARY_FIELDS, vals, strict=True):
+            if not math.isfinite(v):
                 return name
         return None
 
@@ -408,8 +420,9 @@ class GearPair(Fmi2Slave):
             return self._error(f"step refused at t = {t:g} s: {msg}")
         eng = self._engine
         torque, speed = float(self.torque), float(self.speed)
-        saved = eng.get_state()
-        shown = {name: getattr(self, name) for name in _ALL_OUTPUTS}
+        snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
+        saved = snap() if snap is not None else eng.get_state()
+        shown = self._get_shown(self)
         if self._stepped:
             tol = 1e-9 * max(1.0, abs(t), h)
             if abs(t - eng.time) > tol:
@@ -430,7 +443,7 @@ class GearPair(Fmi2Slave):
             kind = "" if isinstance(e, (ValueError, ArithmeticError)) else \
                 f"{type(e).__name__}: "
             restored = self._restore_engine(saved)
-            for name, value in shown.items():
+            for name, value in zip(_ALL_OUTPUTS, shown, strict=True):
                 setattr(self, name, value)
             return self._error(f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
                                + ("" if restored else "; the engine state could not be "
@@ -438,9 +451,12 @@ class GearPair(Fmi2Slave):
         self._stepped = True
         return True
 
-    def _restore_engine(self, saved: dict) -> bool:
+    def _restore_engine(self, saved) -> bool:
         try:
-            self._engine.set_state(saved)
+            if isinstance(saved, dict):
+                self._engine.set_state(saved)
+            else:
+                self._engine.restore(saved)
             return True
         except Exception as e:  # noqa: BLE001
             self._poisoned = f"engine state lost after a failed step ({type(e).__name__}: {e})"

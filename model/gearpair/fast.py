@@ -1356,6 +1356,20 @@ class FastEngine(Engine):
         self._last = state.get("last")
         self._outputs = None
 
+    def snapshot(self) -> tuple:
+        """A cheap copy of the whole state for a rollback within this process (`restore`);
+        `get_state` is the portable, picklable form."""
+        return (self._y.copy(), self._st.copy(), self._ist.copy(), self._dirs.copy(),
+                self._stuck.copy(), self._prev.copy(), self._last)
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a `snapshot` of this engine."""
+        y, st, ist, dirs, stuck, prev, last = snap
+        self._y[:], self._st[:], self._ist[:] = y, st, ist
+        self._dirs[:], self._stuck[:], self._prev[:] = dirs, stuck, prev
+        self._last = last
+        self._outputs = None
+
     def advance(self, t_end: float, torque: float, speed: float,
                 load_speed: float | None = None) -> StepSummary:
         check_inputs(torque, speed, load_speed)

@@ -342,7 +342,10 @@ def run_fmu(scene: Scene, fmu_path: str | Path | None = None) -> Trajectory:
     grid = np.minimum(h * np.arange(n + 1), t_end)  # fmpy's communication points
     grid[-1] = t_end
     fT, fW = scene.inputs.torque, scene.inputs.speed
-    sig = np.zeros(grid.size, dtype=[("time", float), ("torque", float), ("speed", float)])
+    # every input of the FMU gets a column (fmpy warns about a missing one); a scene drives
+    # no load shaft, so load_speed stays 0 with load_speed_input false
+    sig = np.zeros(grid.size, dtype=[("time", float), ("torque", float), ("speed", float),
+                                     ("load_speed", float)])
     sig["time"] = grid
     sig["torque"] = [fT(t) for t in grid]
     sig["speed"] = [fW(t) for t in grid]

@@ -18,17 +18,11 @@ pytest.importorskip("pythonfmu")
 from fmpy import extract  # noqa: E402
 from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi2 import (  # noqa: E402
-    FMU2Slave,
-    calloc,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
     fmi2Discard,
     fmi2Error,
-    free,
 )
 from fmpy.validation import validate_fmu  # noqa: E402
+from fmu_slave import LoggingSlave  # noqa: E402
 
 pytestmark = pytest.mark.fmu
 
@@ -41,29 +35,12 @@ def unzipdir(fmu_path, tmp_path_factory) -> str:
     return str(extract(str(fmu_path), unzipdir=str(tmp_path_factory.mktemp("unzip"))))
 
 
-class Instance:
+class Instance(LoggingSlave):
     """An FMU2Slave with a logger that keeps the messages (debug logging on)."""
 
     OUTPUTS = ("dte", "mesh_force", "friction_force", "output_torque", "input_torque_reaction",
                "gear1_speed", "gear2_speed", "sliding_velocity", "stick_fraction",
                "separation_fraction", "mesh_force_max")
-
-    def __init__(self, md, unzipdir: str, name: str = "gp") -> None:
-        self.md = md
-        self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.messages: list[tuple[int, str]] = []
-
-        def logger(env, instance, status, category, message):
-            self.messages.append((status, message.decode("utf-8")))
-
-        cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(logger)
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self._cb = cb  # keep the ctypes callbacks alive
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(callbacks=cb, loggingOn=True)
 
     def initialize(self, t0: float = 0.0, **start) -> None:
         self.fmu.setupExperiment(startTime=t0)

@@ -44,16 +44,10 @@ fmpy = pytest.importorskip("fmpy")
 from fmpy import extract  # noqa: E402
 from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi2 import (  # noqa: E402
-    FMU2Slave,
-    calloc,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
     fmi2Discard,
-    free,
 )
 from fmpy.util import read_csv  # noqa: E402
+from fmu_slave import LoggingSlave  # noqa: E402
 
 from gearpair import Effects, GearParams  # noqa: E402
 from gearpair.reference import ReferenceEngine  # noqa: E402
@@ -222,24 +216,11 @@ def test_command_line_with_input_file(fmu_path, tmp_path):
 
 
 # -- communication steps that vary from call to call ----------------------------------------
-class Slave:
+class Slave(LoggingSlave):
     """An FMU2Slave on an extracted FMU, with the messages it logged."""
 
     def __init__(self, md, unzipdir: str, name: str) -> None:
-        self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.messages: list[tuple[int, str]] = []
-
-        def logger(env, instance, status, category, message):
-            self.messages.append((status, message.decode("utf-8")))
-
-        cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(logger)
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self._cb = cb  # keep the ctypes callbacks alive
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(callbacks=cb, loggingOn=True)
+        super().__init__(md, unzipdir, name)
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.setReal([self.vr["rtol"]], [RTOL])
         self.fmu.enterInitializationMode()

@@ -1014,18 +1014,24 @@ def _kinetic(mp, y):
     return e
 
 
+@jit_inline
+def _current_active(mp, mi, st, ist, prev_act, act):
+    """The pairs of the last segment (a state on a boundary keeps its set), else the set at
+    the current mesh travel; returns their number."""
+    if ist[J_NPREV] >= 0:
+        for i in range(ist[J_NPREV]):
+            act[i] = prev_act[i]
+        return ist[J_NPREV]
+    return _active_at(mp, mi, st[T_S], act)
+
+
 @jit
 def _speed_change(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, torque, speed,
                   h, pw, sc, Sm):
     """`switching.speed_change`: stuck pairs after a jump of the speed input."""
     if mi[I_FRIC] != FR_STICK or ist[J_SEP] != 0:
         return
-    if ist[J_NPREV] >= 0:
-        nact = ist[J_NPREV]
-        for i in range(nact):
-            act[i] = prev_act[i]
-    else:
-        nact = _active_at(mp, mi, st[T_S], act)
+    nact = _current_active(mp, mi, st, ist, prev_act, act)
     full = mi[I_SLIDE] == 1
     tr = 0.0 if mi[I_TORS] != 0 else 1.0
     for i in range(nact):
@@ -1131,12 +1137,7 @@ def _advance(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
 @jit
 def _eval_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw, sc, Sm):
     """Evaluate at the current state (active set of the last segment); returns nact."""
-    if ist[J_NPREV] >= 0:
-        nact = ist[J_NPREV]
-        for i in range(nact):
-            act[i] = prev_act[i]
-    else:
-        nact = _active_at(mp, mi, st[T_S], act)
+    nact = _current_active(mp, mi, st, ist, prev_act, act)
     _evaluate(mp, mi, tx, tk, tdk, st[T_S], st[T_S], y, st[T_TORQUE], st[T_SPEED], act, nact,
               ist[J_SEP], dirs, stuck, pw, sc, Sm)
     return nact

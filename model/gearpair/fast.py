@@ -1666,8 +1666,8 @@ def _run_grid(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_ac
     n = grid.shape[0]
     _outputs_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw, sc, Sm, o)
     for m in range(N_O):
-        rec[0, m] = o[m]
-    rec[0, N_O + 2] = o[1]
+        rec[m, 0] = o[m]
+    rec[N_O + 2, 0] = o[1]
     for i in range(1, n):
         t0, stick0, sep0 = st[T_T], st[T_STICK], st[T_SEP]
         y[Y_AD] = yad[i - 1]
@@ -1680,11 +1680,11 @@ def _run_grid(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_ac
                      o)
         h = grid[i] - t0
         for m in range(N_O):
-            rec[i, m] = o[m]
-        rec[i, N_O] = (st[T_STICK] - stick0) / h
-        rec[i, N_O + 1] = (st[T_SEP] - sep0) / h
-        rec[i, N_O + 2] = max(out[O_FMAX], o[1])
-        rec[i, N_O + 3] = out[O_NEV]
+            rec[m, i] = o[m]
+        rec[N_O, i] = (st[T_STICK] - stick0) / h
+        rec[N_O + 1, i] = (st[T_SEP] - sep0) / h
+        rec[N_O + 2, i] = max(out[O_FMAX], o[1])
+        rec[N_O + 3, i] = out[O_NEV]
     return n
 
 
@@ -1956,7 +1956,7 @@ class FastEngine(Engine):
         mp = self._mp
         yad = np.zeros(n - 1) if L is None else \
             np.ascontiguousarray(-mp[P_RB2] * (L - W * mp[P_RATIO]))
-        rec = np.zeros((n, N_REC))
+        rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
         self._outputs = None
         filled = _run_grid(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk,
                            self._y, self._st, self._ist, self._dirs, self._stuck, self._trial,
@@ -1969,11 +1969,11 @@ class FastEngine(Engine):
         if filled < n:
             self._raise_failure()
         names = [f.name for f in fields(Outputs)][1:]  # time first, then the N_O values
-        data = {k: rec[:, m].copy() for m, k in enumerate(names)}
+        data = {k: rec[m] for m, k in enumerate(names)}
         data["contact_state"] = data["contact_state"].astype(int)
         for m, k in enumerate(("stick_fraction", "separation_fraction", "mesh_force_max",
                                "n_events")):
-            data[k] = rec[:, N_O + m].copy()
+            data[k] = rec[N_O + m]
         return data
 
     # -- outputs -----------------------------------------------------------------------------

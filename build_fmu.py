@@ -296,7 +296,10 @@ with debug logging on (<code>loggingOn</code> in <code>fmi2Instantiate</code>, f
 <code>debug_logging=True</code> or <code>--debug-logging</code>): pythonfmu forwards log
 messages only then.</li>
 <li>The integrator tolerance is the parameter <code>rtol</code>; the tolerance a master
-passes to <code>fmi2SetupExperiment</code> is not used.</li>
+passes to <code>fmi2SetupExperiment</code> is not used. With <code>friction_law</code> off
+and <code>stiffness_model</code> constant or rectangular the equations have constant
+coefficients between switches and are stepped exactly (matrix exponential), much cheaper than
+with a time-varying stiffness.</li>
 <li>Inputs are held over the step; input derivatives (canInterpolateInputs) are not
 supported.</li>
 <li>The stiffness law "table" of the Python package is not exposed in the FMU.</li>

@@ -724,6 +724,28 @@ def _book(mi, st, sep, stuck, dt):
         st[T_STICK] += dt
 
 
+@jit_inline
+def _illinois_point(a, ga, b, gb):
+    """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b)."""
+    c = b - gb * (b - a) / (gb - ga)
+    if not (a < c < b):
+        c = 0.5 * (a + b)
+    return c
+
+
+@jit_inline
+def _illinois(a, ga, b, gb, c, gc, side):
+    """Shrink the bracket with the value gc at c; halve the stale end's value when the same
+    end moves twice (what keeps regula falsi superlinear). Returns a, ga, b, gb, side."""
+    if gc <= 0.0:
+        if side == -1:
+            ga *= 0.5
+        return a, ga, c, gc, -1
+    if side == 1:
+        gb *= 0.5
+    return c, gc, b, gb, 1
+
+
 # -- exact propagator for constant-coefficient pieces ------------------------------------------
 # With friction off and constant or rectangular stiffness, a piece (one contact state, one pair
 # set, inputs held) is the linear time-invariant system z' = A z with
@@ -755,7 +777,8 @@ def _mm(A, B, C):
 @jit
 def _expm(A, h, E, S):
     """E = expm(A h): power-of-two balancing, scaling and squaring, diagonal Pade (6, 6)
-    (truncation error below 1e-19 at the scaled norm 0.5). ``S``: scratch (>= 9 matrices)."""
+    (truncation error below 1e-19 at the scaled norm 0.5). ``S``: scratch (12 matrices; 8
+    and 9 are left alone for the caller)."""
     X, X2, X4, X6, U, V, T = S[0], S[1], S[2], S[3], S[4], S[5], S[6]
     d = S[7][0]
     for i in range(NZ):
@@ -822,35 +845,15 @@ def _expm(A, h, E, S):
             E[i, j] = V[i, j] + U[i, j]   # numerator
             V[i, j] = V[i, j] - U[i, j]   # denominator
     # solve V R = E (partial pivoting), R into E
-    for col in range(NZ):
-        p = col
-        best = abs(V[col, col])
-        for r in range(col + 1, NZ):
-            if abs(V[r, col]) > best:
-                best = abs(V[r, col])
-                p = r
-        if p != col:
-            for k in range(NZ):
-                tmp = V[col, k]
-                V[col, k] = V[p, k]
-                V[p, k] = tmp
-                tmp = E[col, k]
-                E[col, k] = E[p, k]
-                E[p, k] = tmp
-        piv = V[col, col]
-        for r in range(col + 1, NZ):
-            f = V[r, col] / piv
-            if f != 0.0:
-                for k in range(col, NZ):
-                    V[r, k] -= f * V[col, k]
-                for k in range(NZ):
-                    E[r, k] -= f * E[col, k]
-    for r in range(NZ - 1, -1, -1):
-        for k in range(NZ):
-            acc = E[r, k]
-            for cc in range(r + 1, NZ):
-                acc -= V[r, cc] * E[cc, k]
-            E[r, k] = acc / V[r, r]
+    Wd = S[10:12].reshape((NZ, 2 * NZ))
+    for i in range(NZ):
+        for j in range(NZ):
+            Wd[i, j] = V[i, j]
+            Wd[i, NZ + j] = E[i, j]
+    _solve_small(Wd, NZ, NZ)
+    for i in range(NZ):
+        for j in range(NZ):
+            E[i, j] = Wd[i, NZ + j]
     for _ in range(sq):
         _mm(E, E, T)
         for i in range(NZ):
@@ -1141,24 +1144,13 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
             for _it in range(200):
                 if b - a <= tol:
                     break
-                c = b - gb * (b - a) / (gb - ga)
-                if not (a < c < b):
-                    c = 0.5 * (a + b)
+                c = _illinois_point(a, ga, b, gb)
                 _expm(Lm[k], c, E, Lm[L_SCRATCH:])
                 _mv(E, z, zc)
                 _z_to_y(zc, ytmp)
                 _events_at(mp, mi, tx, tk, tdk, t + c, ytmp, t0, s0, torque, speed, act,
                            nact, cs, dirs, stuck, pw, sc, Sm, gc)
-                if gc[e] <= 0.0:
-                    b, gb = c, gc[e]
-                    if side == -1:
-                        ga *= 0.5
-                    side = -1
-                else:
-                    a, ga = c, gc[e]
-                    if side == 1:
-                        gb *= 0.5
-                    side = 1
+                a, ga, b, gb, side = _illinois(a, ga, b, gb, c, gc[e], side)
             if best_e < 0 or b < best_tau:
                 best_tau, best_e = b, e
         te = tn
@@ -1359,23 +1351,11 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 for _it in range(200):
                     if b - a <= tol_th:
                         break
-                    c = b - gb * (b - a) / (gb - ga)
-                    if not (a < c < b):
-                        c = 0.5 * (a + b)
+                    c = _illinois_point(a, ga, b, gb)
                     _interp(R, c, ytmp)
                     _events_at(mp, mi, tx, tk, tdk, t + c * hh, ytmp, t0, s0, torque, speed,
                                act, nact, sep, dirs, stuck, pw, sc, Sm, ynew)
-                    gc = ynew[e]
-                    if gc <= 0.0:
-                        b, gb = c, gc
-                        if side == -1:
-                            ga *= 0.5
-                        side = -1
-                    else:
-                        a, ga = c, gc
-                        if side == 1:
-                            gb *= 0.5
-                        side = 1
+                    a, ga, b, gb, side = _illinois(a, ga, b, gb, c, ynew[e], side)
                 if best_e < 0 or b < best_th:
                     best_th, best_e = b, e
             te = t + best_th * hh
@@ -1800,7 +1780,7 @@ class FastEngine(Engine):
         self._sc = np.zeros(N_SC)
         self._Sm = np.zeros((n, n + 2))
         self._out = np.zeros(N_OUT)
-        self._Lm = np.zeros((L_SCRATCH + 10, NZ, NZ))
+        self._Lm = np.zeros((L_SCRATCH + 12, NZ, NZ))
         self._Lk = np.zeros((L_NSLOT + 1, 4))
         self._Lk[:L_NSLOT, 0] = -1.0  # empty slots
         self._Lv = np.zeros((6, max(NZ, N_Y)))

@@ -40,7 +40,7 @@ import math
 import re
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from fractions import Fraction
 from functools import cache
 
@@ -449,8 +449,8 @@ def _contact_loss(run: Run) -> None:
 
 
 @cache
-def _uniform_reference(t_end: float) -> dict:
-    e = FastEngine(rtol=RTOL)
+def _uniform_reference(t_end: float, effects: Effects | None = None) -> dict:
+    e = FastEngine(effects=effects, rtol=RTOL)
     e.reset(0.0, TR, W10)
     for te in uniform(1e-3, t_end):
         e.advance(te, TR, W10)
@@ -460,11 +460,22 @@ def _uniform_reference(t_end: float) -> dict:
 
 def _same_end_as_uniform_steps(run: Run) -> None:
     """Constant inputs: only the sub-stepping differs from a run of 1e-3 s steps."""
-    ref = _uniform_reference(float(run.t[-1]))
+    ref = _uniform_reference(float(run.t[-1]), run.case.effects)
     for k in ("dte", "mesh_force"):
         scale = np.max(np.abs(run.out[k]))
         assert abs(run.out[k][-1] - ref[k]) <= 1e-5 * scale, k
     assert run.h.min() <= 1.0000001e-6 and run.h.max() >= 0.0999999
+
+
+EXACT_CONSTANT = Effects(friction="off", stiffness="constant")
+EXACT_RECTANGULAR = Effects(friction="off", stiffness="rectangular")
+
+
+def _both_flanks(run: Run) -> None:
+    """Torque reversals with backlash: drive flank, apart and back flank all occur."""
+    cs = run.out["contact_state"]
+    assert np.any(cs == 1) and np.any(cs == 0) and np.any(cs == 3)
+    assert np.all(run.out["mesh_force"][cs == 3] < 0.0)
 
 
 def _varying_steps() -> list[float]:
@@ -528,6 +539,14 @@ def _cases() -> dict[str, Case]:
              extra=_same_end_as_uniform_steps),
         Case("comm_steps_varying", schedule(_varying_steps(), TR, W10),
              extra=_same_end_as_uniform_steps),
+        # constant coefficients: the exact propagator (fast engine) instead of Runge-Kutta
+        Case("exact_comm_steps_varying", schedule(_varying_steps(), TR, W10),
+             effects=EXACT_CONSTANT, extra=_same_end_as_uniform_steps),
+        Case("exact_contact_loss_reimpact", schedule(uniform(5e-4, 0.04), 1000.0, 250.0),
+             effects=EXACT_RECTANGULAR, extra=_contact_loss),
+        Case("exact_reversals_backlash",
+             schedule(u1, lambda t: TR * math.cos(2.0 * math.pi * 20.0 * t), W10),
+             effects=replace(EXACT_RECTANGULAR, backlash=1e-4), extra=_both_flanks),
     ]
     return {c.name: c for c in cases}
 

@@ -301,7 +301,7 @@ def test_missing_scene_file(tmp_path):
 def test_scenes_are_shipped():
     names = {p.stem for p in SHIPPED}
     assert {"paper_slip", "paper_stick_slip", "torque_reversal_backlash", "driveline_startup",
-            "nvh_torsional"} <= names
+            "nvh_torsional", "driveline_torsional"} <= names
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
@@ -470,3 +470,14 @@ def test_docs_list_every_key():
     keys += list(OUTPUT_NAMES)
     missing = [k for k in keys if f"`{k}`" not in doc]
     assert not missing, missing
+
+
+def test_schedules_sample_a_grid_as_they_do_point_by_point():
+    """`sample` (one call for a whole grid, what the compiled recorder is fed) equals the
+    pointwise schedule exactly, on both sides of every breakpoint."""
+    from gearpair.scenes import Constant, Ramp, Series, Step
+
+    t = np.r_[np.linspace(-0.1, 1.2, 1001), 0.5 - 1e-13, 0.5 + 1e-13]
+    for f in (Constant(3.0), Ramp(1.0, 5.0, 0.2, 0.7), Step(1.0, 2.0, 0.5),
+              Series((0.0, 0.5, 1.0), (1.0, 3.0, 2.0))):
+        assert np.array_equal(f.sample(t), np.array([f(x) for x in t])), f

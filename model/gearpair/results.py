@@ -234,8 +234,8 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
             extra["mesh_force_max"][i] = out.mesh_force
 
     if hasattr(eng, "run_grid"):  # compiled engines record the whole grid in one call
-        T = np.fromiter((fT(t) for t in grid[:-1]), float, n)
-        W = np.fromiter((fW(t) for t in grid[:-1]), float, n)
+        T, W = (f.sample(grid[:-1]) if hasattr(f, "sample") else
+                np.fromiter((f(t) for t in grid[:-1]), float, n) for f in (fT, fW))
         rec = eng.run_grid(grid, T, W)
         data = {"time": grid, **rec}
         data["torque"] = np.r_[fT(grid[0]), T]

@@ -60,6 +60,10 @@ class Constant:
     def __call__(self, t: float) -> float:
         return self.value
 
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Values at the times ``t`` (one vectorized call for a whole grid)."""
+        return np.full(np.shape(t), float(self.value))
+
 
 @dataclass(frozen=True)
 class Ramp:
@@ -77,6 +81,10 @@ class Ramp:
             return self.end
         return self.start + (self.end - self.start) * (t - self.t0) / (self.t1 - self.t0)
 
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Values at the times ``t`` (one vectorized call for a whole grid)."""
+        return np.array([self(x) for x in np.asarray(t, dtype=float)], dtype=float)
+
 
 @dataclass(frozen=True)
 class Step:
@@ -88,6 +96,11 @@ class Step:
 
     def __call__(self, t: float) -> float:
         return self.after if t >= self.at - _T_TOL else self.before
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Values at the times ``t`` (one vectorized call for a whole grid)."""
+        return np.where(np.asarray(t, dtype=float) >= self.at - _T_TOL, float(self.after),
+                        float(self.before))
 
 
 @dataclass(frozen=True)
@@ -114,6 +127,10 @@ class Series:
 
     def __call__(self, t: float) -> float:
         return float(np.interp(t, self._t, self._v))
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Values at the times ``t`` (one vectorized call for a whole grid)."""
+        return np.interp(np.asarray(t, dtype=float), self._t, self._v)
 
 
 Schedule = Constant | Ramp | Step | Series

@@ -911,15 +911,15 @@ def _lti_matrix(mp, mi, tx, tk, tdk, t0, s0, speed, act, nact, cs, dirs, stuck, 
 def _lti_slot(mp, mi, tx, tk, tdk, t0, s0, speed, act, nact, cs, km, h, dirs, stuck, pw, sc,
               Sm, ytmp, dy, Lm, Lk):
     """Index of the cached propagator for (cs, km, h); built on a miss (least recently
-    used slot). Steps that differ only by the rounding of the times they join (a grid
-    t_i = i dt) share a propagator: the difference is below what time itself resolves."""
+    used slot). Keys match exactly: what a step computes must not depend on what the cache
+    saw before (a state restored into a fresh engine continues bit for bit). A grid's
+    round-off makes only a few distinct step lengths, which the slots hold."""
     Lk[L_NSLOT, 0] += 1.0
     use = Lk[L_NSLOT, 0]
     same_a = -1
-    h_tol = 1e-13 * h + 8.0 * 2.220446049250313e-16 * abs(t0)
     for k in range(L_NSLOT):
         if Lk[k, 0] == cs and Lk[k, 1] == km:
-            if abs(Lk[k, 2] - h) <= h_tol:
+            if Lk[k, 2] == h:
                 Lk[k, 3] = use
                 return k
             same_a = k

@@ -665,6 +665,20 @@ def _interp(R, theta, out):
 
 
 @jit_inline
+def _dense(R, y, ynew, K, hh):
+    """Coefficients of the continuous extension of the step y -> ynew (for `_interp`)."""
+    for m in range(N_Y):
+        dyn = ynew[m] - y[m]
+        R[0, m] = y[m]
+        R[1, m] = dyn
+        bs = hh * K[0, m] - dyn
+        R[2, m] = bs
+        R[3, m] = dyn - hh * K[6, m] - bs
+        R[4, m] = hh * (_D1 * K[0, m] + _D3 * K[2, m] + _D4 * K[3, m] + _D5 * K[4, m]
+                        + _D6 * K[5, m] + _D7 * K[6, m])
+
+
+@jit_inline
 def _err_norm(yold, ynew, err, atol, rtol):
     acc = 0.0
     for m in range(N_Y):
@@ -1292,20 +1306,12 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             rejected = True
         out[O_NSTEPS] += 1.0
         st[T_H] = h
-        # continuous extension
-        for m in range(N_Y):
-            dyn = ynew[m] - y[m]
-            R[0, m] = y[m]
-            R[1, m] = dyn
-            bs = hh * K[0, m] - dyn
-            R[2, m] = bs
-            R[3, m] = dyn - hh * K[6, m] - bs
-            R[4, m] = hh * (_D1 * K[0, m] + _D3 * K[2, m] + _D4 * K[3, m] + _D5 * K[4, m]
-                            + _D6 * K[5, m] + _D7 * K[6, m])
         # scan the step for falls through zero, samples at most `spacing` apart
         nsub = int(math.ceil(hh / spacing * (1.0 - 1e-12)))
         if nsub < 1:
             nsub = 1
+        if nsub > 1:  # the continuous extension is needed only to sample inside the step
+            _dense(R, y, ynew, K, hh)
         hit = False
         th_prev = 0.0
         th_hit = 1.0
@@ -1340,6 +1346,8 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 gprev[e] = g[e]
             th_prev = th
         if hit:
+            if nsub == 1:
+                _dense(R, y, ynew, K, hh)
             # Refine every falling function on the interpolant (Illinois); keep the earliest.
             best_th = th_hit
             best_e = -1

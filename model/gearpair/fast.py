@@ -449,6 +449,12 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, di
         sc[S_QDD + m] = mp[P_MINV + m] * sc[S_F + m]
 
 
+# The right-hand side (six calls a Runge-Kutta step) gets its own inlined copy of the
+# contact-state evaluation; the other callers share the compiled function (compile time).
+_evaluate_inl = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
+                           _nrt=False)(_evaluate.py_func)
+
+
 @jit_inline
 def _pin_supports(sc):
     """Torsional model: x1, y1, x2, y2 are not integrated (rigid supports)."""
@@ -522,8 +528,8 @@ def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, cs,
     """Right-hand side of one contact state with the four energy quadratures."""
     rb1 = mp[P_RB1]
     s = s0 + rb1 * speed * (t - t0)
-    _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, dirs, stuck,
-              pw, sc, Sm)
+    _evaluate_inl(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, dirs, stuck,
+                  pw, sc, Sm)
     for m in range(6):
         dy[m] = y[6 + m]
         dy[6 + m] = sc[S_QDD + m]
@@ -553,6 +559,13 @@ def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, cs,
         dy[15] = 0.5 * dkm * rb1 * speed * sc[S_COMP] * sc[S_COMP]
     else:
         dy[15] = 0.0
+
+
+# The Runge-Kutta stages call the right-hand side six times a step: there it is inlined
+# (with the contact-state evaluation), which saves the by-value passing of some twenty arrays
+# per call; elsewhere the compiled call keeps the kernels small.
+_rhs_stage = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
+                        _nrt=False)(_rhs.py_func)
 
 
 @jit
@@ -1282,8 +1295,8 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                         acc += _DP_A[stg, j] * K[j, m]
                     ytmp[m] = y[m] + hh * acc
                 ts = tn if stg >= 5 else t + _DP_C[stg] * hh
-                _rhs(mp, mi, tx, tk, tdk, ts, si, ytmp, t0, s0, torque, speed, act, nact,
-                     sep, dirs, stuck, pw, sc, Sm, K[stg])
+                _rhs_stage(mp, mi, tx, tk, tdk, ts, si, ytmp, t0, s0, torque, speed, act,
+                           nact, sep, dirs, stuck, pw, sc, Sm, K[stg])
             for m in range(N_Y):
                 ynew[m] = ytmp[m]
             for m in range(N_Y):

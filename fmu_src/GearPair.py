@@ -352,6 +352,16 @@ class GearPair(Fmi2Slave):
             self.mesh_force_max = float(summary.mesh_force_max)
             self.n_events = int(summary.n_events)
 
+    def _copy_values(self, o, figures) -> None:
+        """`_copy_outputs` from `FastEngine.output_values` and `advance_values`."""
+        (self.dte, self.mesh_force, self.friction_force, cs, self.output_torque,
+         self.input_torque_reaction, self.input_torque, self.gear1_speed, self.gear2_speed,
+         self.sliding_velocity) = o.tolist()
+        self.contact_state = int(cs)
+        (self.stick_fraction, self.separation_fraction, self.mesh_force_max,
+         self.n_events) = (float(figures[0]), float(figures[1]), float(figures[2]),
+                           int(figures[3]))
+
     def _outputs_finite(self) -> str | None:
         vals = self._get_finite(self)
         if math.isfinite(sum(vals)):  # one check on the usual path (inf - inf is nan)
@@ -433,9 +443,14 @@ class GearPair(Fmi2Slave):
             if not self._stepped:
                 eng.reset(t0=t, torque=torque, speed=speed, static=True)
             load_speed = self._load_speed()
-            summary = eng.advance(t + h, torque, speed) if load_speed is None else \
-                eng.advance(t + h, torque, speed, load_speed)
-            self._copy_outputs(summary)
+            fast = getattr(eng, "advance_values", None)
+            if fast is not None:  # the fast engine's plain-number path (inputs checked above)
+                figures = fast(t + h, torque, speed, load_speed)
+                self._copy_values(eng.output_values(), figures)
+            else:
+                summary = eng.advance(t + h, torque, speed) if load_speed is None else \
+                    eng.advance(t + h, torque, speed, load_speed)
+                self._copy_outputs(summary)
             bad = self._outputs_finite()
             if bad is not None:
                 raise ArithmeticError(f"output {bad} is not finite")

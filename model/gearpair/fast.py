@@ -1809,6 +1809,7 @@ class FastEngine(Engine):
         self._Lv = np.zeros((6, max(NZ, N_Y)))
         self._o = np.zeros(N_O)
         self._outputs: Outputs | None = None  # cache, valid until the state changes
+        self._o_fresh = False  # self._o holds the outputs of the current state
         self.reset()
 
     # -- contract ----------------------------------------------------------------------------
@@ -1838,6 +1839,7 @@ class FastEngine(Engine):
                       self._act)
         self._last = None
         self._outputs = None
+        self._o_fresh = False
 
     def get_state(self) -> dict:
         npv = int(self._ist[J_NPREV])
@@ -1872,6 +1874,7 @@ class FastEngine(Engine):
             self._prev[:len(prev)] = np.asarray(prev, dtype=np.int64)
         self._last = state.get("last")
         self._outputs = None
+        self._o_fresh = False
 
     def snapshot(self) -> tuple:
         """A cheap copy of the whole state for a rollback within this process (`restore`);
@@ -1886,10 +1889,25 @@ class FastEngine(Engine):
         self._dirs[:], self._stuck[:], self._prev[:] = dirs, stuck, prev
         self._last = last
         self._outputs = None
+        self._o_fresh = False
 
     def advance(self, t_end: float, torque: float, speed: float,
                 load_speed: float | None = None) -> StepSummary:
         check_inputs(torque, speed, load_speed)
+        t_start = self.time
+        f = self.advance_values(t_end, torque, speed, load_speed)
+        return StepSummary(t_start, float(t_end), *f)
+
+    def advance_values(self, t_end: float, torque: float, speed: float,
+                       load_speed: float | None = None) -> tuple:
+        """`advance` for a caller that has validated the inputs and reads plain numbers (the
+        FMU's doStep, where each microsecond counts): no input check, no dataclass.
+
+        Returns
+        -------
+        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps) of the step;
+        `output_values` then has the outputs.
+        """
         t_start = self.time
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
@@ -1899,6 +1917,7 @@ class FastEngine(Engine):
             -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
         out = self._out
         self._outputs = None
+        self._o_fresh = False
         _advance(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk, self._y,
                  self._st, self._ist, self._dirs, self._stuck, self._trial, self._prev,
                  self._act, float(t_end), float(torque), float(speed), self._offs, self._kcur,
@@ -1906,11 +1925,10 @@ class FastEngine(Engine):
                  self._sc, self._Sm, self._Lm, self._Lk, self._Lv, out)
         self._raise_failure()
         h = t_end - t_start
-        o = self.outputs()
+        o = self.output_values()
         self._last = (t_start, float(t_end))
-        return StepSummary(t_start, float(t_end), (self._st[T_STICK] - t_stick0) / h,
-                           (self._st[T_SEP] - t_sep0) / h, max(float(out[O_FMAX]), o.mesh_force),
-                           int(out[O_NEV]), int(out[O_NSTEPS]))
+        return ((self._st[T_STICK] - t_stick0) / h, (self._st[T_SEP] - t_sep0) / h,
+                max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]))
 
     def _raise_failure(self) -> None:
         out = self._out
@@ -1961,6 +1979,7 @@ class FastEngine(Engine):
             np.ascontiguousarray(-mp[P_RB2] * (L - W * mp[P_RATIO]))
         rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
         self._outputs = None
+        self._o_fresh = False
         filled = _run_grid(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk,
                            self._y, self._st, self._ist, self._dirs, self._stuck, self._trial,
                            self._prev, self._act, grid, T, W, yad, self._offs, self._kcur,
@@ -1985,12 +2004,19 @@ class FastEngine(Engine):
                              self._st, self._ist, self._dirs, self._stuck, self._prev,
                              self._act, self._pw, self._sc, self._Sm))
 
-    def outputs(self) -> Outputs:
-        if self._outputs is None:
-            o = self._o
+    def output_values(self) -> np.ndarray:
+        """The `Outputs` values after ``time``, in field order, as the engine's own array
+        (read it before the next step; `outputs` is the dataclass)."""
+        if not self._o_fresh:
             _outputs_now(self._mp, self._mi, self._tx, self._tk, self._tdk, self._y, self._st,
                          self._ist, self._dirs, self._stuck, self._prev, self._act, self._pw,
-                         self._sc, self._Sm, o)
+                         self._sc, self._Sm, self._o)
+            self._o_fresh = True
+        return self._o
+
+    def outputs(self) -> Outputs:
+        if self._outputs is None:
+            o = self.output_values()
             self._outputs = Outputs(float(self._st[T_T]), float(o[0]), float(o[1]),
                                     float(o[2]), int(o[3]), float(o[4]), float(o[5]),
                                     float(o[6]), float(o[7]), float(o[8]), float(o[9]))

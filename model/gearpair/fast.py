@@ -1123,7 +1123,8 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
     k = _lti_slot(mp, mi, tx, tk, tdk, t0, s0, speed, act, nact, cs, km, htot, dirs, stuck, pw,
                   sc, Sm, ytmp, Lv[5], Lm, Lk)
     nsub = 1
-    if not _lti_quiet(mp, mi, Lm[k], z, cs, W):
+    quiet = _lti_quiet(mp, mi, Lm[k], z, cs, W)
+    if not quiet:
         nsub = max(1, int(math.ceil(htot / mp[P_SPACING] * (1.0 - 1e-12))))
         if nsub > 1:
             k = _lti_slot(mp, mi, tx, tk, tdk, t0, s0, speed, act, nact, cs, km, htot / nsub,
@@ -1142,10 +1143,17 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
         else:
             _mv(Lm[L_NSLOT + k], z, zn)
         tn = tb if ks == nsub else t0 + ks * hs
+        out[O_NSTEPS] += 1.0
+        if quiet:
+            # one step: no event can fall, and the force at the end is the next piece's
+            # start or the step's outputs, which the step's peak includes
+            for m in range(NZ):
+                z[m] = zn[m]
+            t = tn
+            continue
         _z_to_y(zn, ytmp)
         fm = _events_at(mp, mi, tx, tk, tdk, tn, ytmp, t0, s0, torque, speed, act, nact, cs,
                         dirs, stuck, pw, sc, Sm, g)
-        out[O_NSTEPS] += 1.0
         hit = False
         for e in range(ng):
             if gprev[e] > 0.0 and g[e] <= 0.0:
@@ -1443,8 +1451,9 @@ def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
             if not inside:
                 stuck[j] = 0
     _settle(mp, mi, st[T_S], y, speed, act, nact, ist[J_SEP], dirs, stuck)
-    if nprev >= 0:
-        # Stored mesh energy jumps when a pair enters or leaves: book it as parametric.
+    if nprev >= 0 and mi[I_KIND] != KIND_CONSTANT:
+        # Stored mesh energy jumps when a pair enters or leaves: book it as parametric (the
+        # constant law keeps its total whichever pairs are in mesh).
         km_before = 0.0
         for i in range(nprev):
             xi = _pair_xi(mp, st[T_S], prev_act[i])

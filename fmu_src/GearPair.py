@@ -335,28 +335,23 @@ class GearPair(Fmi2Slave):
 
     def _copy_outputs(self, summary=None) -> None:
         o = self._engine.outputs()
-        self.dte, self.mesh_force, self.friction_force = o.dte, o.mesh_force, o.friction_force
-        self.output_torque, self.input_torque_reaction = o.output_torque, o.input_torque_reaction
-        self.input_torque, self.gear1_speed, self.gear2_speed = \
-            o.input_torque, o.gear1_speed, o.gear2_speed
-        self.sliding_velocity = o.sliding_velocity
-        self.contact_state = int(o.contact_state)
+        values = (o.dte, o.mesh_force, o.friction_force, o.contact_state, o.output_torque,
+                  o.input_torque_reaction, o.input_torque, o.gear1_speed, o.gear2_speed,
+                  o.sliding_velocity)
         if summary is None:  # no step yet: the figures describe the instant t0
-            self.stick_fraction = 1.0 if self.contact_state == 2 else 0.0
-            self.separation_fraction = 1.0 if self.contact_state in (0, 3) else 0.0
-            self.mesh_force_max = self.mesh_force
-            self.n_events = 0
+            cs = int(o.contact_state)
+            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs in (0, 3) else 0.0, o.mesh_force, 0)
         else:
-            self.stick_fraction = float(summary.stick_fraction)
-            self.separation_fraction = float(summary.separation_fraction)
-            self.mesh_force_max = float(summary.mesh_force_max)
-            self.n_events = int(summary.n_events)
+            figures = (summary.stick_fraction, summary.separation_fraction,
+                       summary.mesh_force_max, summary.n_events)
+        self._copy_values(values, figures)
 
-    def _copy_values(self, o, figures) -> None:
-        """`_copy_outputs` from `FastEngine.output_values` and `advance_values`."""
+    def _copy_values(self, values, figures) -> None:
+        """Outputs from the `Outputs` values in field order (after time) and the step figures
+        (stick_fraction, separation_fraction, mesh_force_max, n_events)."""
         (self.dte, self.mesh_force, self.friction_force, cs, self.output_torque,
          self.input_torque_reaction, self.input_torque, self.gear1_speed, self.gear2_speed,
-         self.sliding_velocity) = o.tolist()
+         self.sliding_velocity) = values
         self.contact_state = int(cs)
         (self.stick_fraction, self.separation_fraction, self.mesh_force_max,
          self.n_events) = (float(figures[0]), float(figures[1]), float(figures[2]),
@@ -446,7 +441,7 @@ class GearPair(Fmi2Slave):
             fast = getattr(eng, "advance_values", None)
             if fast is not None:  # the fast engine's plain-number path (inputs checked above)
                 figures = fast(t + h, torque, speed, load_speed)
-                self._copy_values(eng.output_values(), figures)
+                self._copy_values(eng.output_values().tolist(), figures)
             else:
                 summary = eng.advance(t + h, torque, speed) if load_speed is None else \
                     eng.advance(t + h, torque, speed, load_speed)

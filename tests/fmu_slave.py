@@ -23,7 +23,7 @@ class LoggingSlave:
         self.messages: list[tuple[int, str]] = []
 
         def logger(env, instance, status, category, message):
-            self.messages.append((status, message.decode("utf-8")))
+            self.messages.append((status, message.decode("utf-8", "replace")))
 
         cb = fmi2CallbackFunctions()
         cb.logger = fmi2CallbackLoggerTYPE(logger)

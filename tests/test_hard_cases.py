@@ -56,18 +56,11 @@ from gearpair.fast import FastEngine  # noqa: E402
 try:  # the engine cases run without fmpy; the FMU cases skip through the fixture ``md``
     from fmpy import extract, simulate_fmu
     from fmpy.fmi1 import FMICallException
-    from fmpy.fmi2 import (
-        FMU2Slave,
-        calloc,
-        fmi2CallbackAllocateMemoryTYPE,
-        fmi2CallbackFreeMemoryTYPE,
-        fmi2CallbackFunctions,
-        fmi2CallbackLoggerTYPE,
-        fmi2OK,
-        free,
-    )
+    from fmpy.fmi2 import fmi2OK
+    from fmu_slave import LoggingSlave
 except ImportError:
     fmi2OK = 0
+    LoggingSlave = object
 
 # -- tolerances and the documented rules ------------------------------------------------------
 RTOL = 1e-8             # engine and FMU tolerance (the FMU's default)
@@ -599,27 +592,13 @@ def start_values(md, params: GearParams, effects: Effects, rtol: float) -> dict:
     return sv
 
 
-class Slave:
-    """One FMU2Slave instance on the extracted FMU, with what it logged."""
+class Slave(LoggingSlave):
+    """One FMU2Slave instance on the extracted FMU, with what it logged, initialized."""
 
     def __init__(self, md, unzipdir: str, name: str, start: dict | None = None,
                  inputs: tuple[float, float] | None = None, t0: float = 0.0) -> None:
-        self.md = md
+        super().__init__(md, unzipdir, name)
         self.var = {v.name: v for v in md.modelVariables}
-        self.messages: list[tuple[int, str]] = []
-
-        def logger(env, instance, status, category, message):
-            self.messages.append((status, message.decode("utf-8", "replace")))
-
-        cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(logger)
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self._cb = cb  # keep the ctypes callbacks alive
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier,
-                             instanceName=name)
-        self.fmu.instantiate(callbacks=cb, loggingOn=True)
         self.fmu.setupExperiment(startTime=t0)
         for k, x in (start or {}).items():
             self.set(k, x)

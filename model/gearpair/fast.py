@@ -10,12 +10,16 @@ taking a step as `reference.ReferenceEngine`:
   ``s = rb1 * speed * t``; the stored mesh energy that jumps there is booked as parametric
   work;
 - inside a segment an embedded explicit Runge-Kutta pair integrates one contact state:
-  Dormand & Prince 5(4) (local extrapolation, FSAL) with its continuous extension of order 4,
-  error control in the RMS norm of ``atol + rtol * |y|`` and the step bounded by
-  ``max_step`` (half the period of the highest slip-model mode, as in the reference);
-- *unknown* switches are found by sampling the continuous extension at ``n_samples`` interior
-  points of every accepted step (plus its end) and watching every event function for a fall
-  through zero; the earliest fall is refined on the interpolant with the Illinois variant of
+  DOP853, Dormand & Prince 8(5,3) with its continuous extension of order 7 (the default), or
+  Dormand & Prince 5(4) with one of order 4 (``method="dp5"``); both with local
+  extrapolation, FSAL, error control in the RMS norm of ``atol + rtol * |y|`` and the step
+  bounded by ``max_step`` (half the period of the highest slip-model mode, as in the
+  reference). DOP853 takes about a third of the steps at a tolerance that resolves the
+  2.7-4 kHz mesh ringing (rtol 1e-7), which outweighs its twice as many stages;
+- *unknown* switches are found by sampling the step at ``n_samples`` interior points (plus
+  its end) and watching every event function for a fall through zero (DOP853 samples the
+  cubic Hermite of the step ends first and re-scans on its full extension when something
+  falls); the earliest fall is refined on the interpolant with the Illinois variant of
   regula falsi until the bracket is shorter than ``t_tol`` (default 1e-14 s plus 4 ulp of t);
   the located instant is the right end of the bracket (the state has already changed there).
   The state then switches and the integrator restarts from the located instant.
@@ -154,8 +158,8 @@ P_MINV, P_C, P_KB = 0, 6, 12
 N_MP = 41
 # int flags (mi)
 (I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB, I_BACK,
- I_TORS, I_LTI) = range(13)
-N_MI = 13
+ I_TORS, I_LTI, I_METHOD) = range(14)
+N_MI = 14
 KIND_CONSTANT, KIND_TABLE = 0, 1
 FR_OFF, FR_NOMINAL, FR_REG, FR_STICK = 0, 1, 2, 3
 _FRICTION_CODE = {"off": FR_OFF, "nominal": FR_NOMINAL, "regularized": FR_REG,
@@ -183,31 +187,49 @@ STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
 # typical magnitudes for the default absolute tolerance (as the reference)
 _SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
 
-# Dormand & Prince 5(4): nodes, coupling, error weights (b - b_hat) and the continuous
-# extension of Hairer, Norsett & Wanner (order 4).
-_C2, _C3, _C4, _C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
-_A21 = 1.0 / 5.0
-_A31, _A32 = 3.0 / 40.0, 9.0 / 40.0
-_A41, _A42, _A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
-_A51, _A52, _A53, _A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
-_A61, _A62, _A63 = 9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0
-_A64, _A65 = 49.0 / 176.0, -5103.0 / 18656.0
-_B1, _B3, _B4, _B5, _B6 = (35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0,
-                           11.0 / 84.0)
-_E1, _E3, _E4, _E5, _E6, _E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0,
-                                -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0)
-_D1, _D3, _D4 = -12715105075.0 / 11282082432.0, 87487479700.0 / 32700410799.0, \
-    -10690763975.0 / 1880347072.0
-_D5, _D6, _D7 = 701980252875.0 / 199316789632.0, -1453857185.0 / 822651844.0, \
-    69997945.0 / 29380423.0
-_DP_C = np.array([0.0, _C2, _C3, _C4, _C5, 1.0, 1.0])
-_DP_A = np.zeros((7, 7))
-_DP_A[1, 0] = _A21
-_DP_A[2, :2] = _A31, _A32
-_DP_A[3, :3] = _A41, _A42, _A43
-_DP_A[4, :4] = _A51, _A52, _A53, _A54
-_DP_A[5, :5] = _A61, _A62, _A63, _A64, _A65
-_DP_A[6, :6] = _B1, 0.0, _B3, _B4, _B5, _B6  # FSAL: the last stage is at the new point
+# Explicit Runge-Kutta pairs with a first-same-as-last stage, as tableaux of one shape so one
+# compiled step serves both: Dormand & Prince 5(4) (7 stages, continuous extension of order 4
+# by Hairer, Norsett & Wanner) and Dormand & Prince 8(5,3) (DOP853: 13 stages, 3 more for its
+# order-7 continuous extension). DOP853's coefficients are read from scipy, which integrates
+# with the same method, so the two can be compared number for number.
+M_DP5, M_DOP853 = 0, 1
+_METHOD_CODE = {"dp5": M_DP5, "dop853": M_DOP853}
+RK_NK = 16  # stage rows of the work array K
+_RK_NS = np.array([7, 13])  # stages of a step, the last at the new point (FSAL)
+_RK_NX = np.array([7, 16])  # stages including the extra ones of the continuous extension
+_RK_ND = np.array([1, 4])  # rows of D in the continuous extension
+_RK_Q = np.array([5.0, 8.0])  # the error estimate is O(h^q): step factor err^(-1/q)
+_RK_A = np.zeros((2, RK_NK, RK_NK))
+_RK_C = np.zeros((2, RK_NK))
+_RK_E = np.zeros((2, RK_NK))  # error weights (b - b_hat); DOP853: its 5th-order estimate
+_RK_E3 = np.zeros((2, RK_NK))  # DOP853's 3rd-order estimate (zero for DP5)
+_RK_D = np.zeros((2, 4, RK_NK))
+_RK_C[0, :7] = [0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0]
+_RK_A[0, 1, :1] = [1 / 5]
+_RK_A[0, 2, :2] = [3 / 40, 9 / 40]
+_RK_A[0, 3, :3] = [44 / 45, -56 / 15, 32 / 9]
+_RK_A[0, 4, :4] = [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729]
+_RK_A[0, 5, :5] = [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]
+_RK_A[0, 6, :6] = [35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]
+_RK_E[0, :7] = [71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40]
+_RK_D[0, 0, :7] = [-12715105075 / 11282082432, 0.0, 87487479700 / 32700410799,
+                   -10690763975 / 1880347072, 701980252875 / 199316789632,
+                   -1453857185 / 822651844, 69997945 / 29380423]
+
+
+def _load_dop853() -> None:
+    from scipy.integrate._ivp import dop853_coefficients as d8
+
+    _RK_A[1] = d8.A
+    _RK_A[1, 12, :12] = d8.B  # the FSAL stage is evaluated at the new point
+    _RK_C[1] = d8.C
+    _RK_C[1, 11:13] = 1.0
+    _RK_E[1, :13] = d8.E5
+    _RK_E3[1, :13] = d8.E3
+    _RK_D[1] = d8.D
+
+
+_load_dop853()
 
 
 # -- model functions (compiled) ------------------------------------------------------------
@@ -449,7 +471,7 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, di
         sc[S_QDD + m] = mp[P_MINV + m] * sc[S_F + m]
 
 
-# The right-hand side (six calls a Runge-Kutta step) gets its own inlined copy of the
+# The right-hand side (6 or 12 calls a Runge-Kutta step) gets its own inlined copy of the
 # contact-state evaluation; the other callers share the compiled function (compile time).
 _evaluate_inl = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
                            _nrt=False)(_evaluate.py_func)
@@ -561,7 +583,7 @@ def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, cs,
         dy[15] = 0.0
 
 
-# The Runge-Kutta stages call the right-hand side six times a step: there it is inlined
+# The Runge-Kutta stages call the right-hand side 6 or 12 times a step: there it is inlined
 # (with the contact-state evaluation), which saves the by-value passing of some twenty arrays
 # per call; elsewhere the compiled call keeps the kernels small.
 _rhs_stage = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
@@ -669,36 +691,74 @@ def _switch(mp, mi, tx, tk, tdk, label, s, y, torque, speed, act, nact, ist, dir
 
 
 @jit_inline
-def _interp(R, theta, out):
-    """Continuous extension of the accepted step at fraction ``theta``."""
+def _interp(R, nf, theta, out):
+    """Continuous extension of the accepted step at fraction ``theta``:
+    R0 + th (R1 + (1 - th) (R2 + th (R3 + ...))) over rows 1..nf."""
     th1 = 1.0 - theta
     for m in range(N_Y):
-        out[m] = R[0, m] + theta * (R[1, m] + th1 * (R[2, m] + theta * (R[3, m]
-                                                                         + th1 * R[4, m])))
+        acc = 0.0
+        for i in range(nf, 0, -1):
+            acc = (R[i, m] + acc) * (theta if i % 2 == 1 else th1)
+        out[m] = R[0, m] + acc
+
+
+R_GSAVE, R_GEND = 8, 9  # rows of the work array R: event values at a step's start and end
 
 
 @jit_inline
-def _dense(R, y, ynew, K, hh):
-    """Coefficients of the continuous extension of the step y -> ynew (for `_interp`)."""
+def _hermite(R, y, ynew, K, hh, nfs):
+    """Rows 0-3 of the continuous extension (`_interp`): alone, the cubic Hermite of the step
+    ends (K[0] at the start, K[nfs] at the end); returns its row count."""
     for m in range(N_Y):
         dyn = ynew[m] - y[m]
         R[0, m] = y[m]
         R[1, m] = dyn
-        bs = hh * K[0, m] - dyn
-        R[2, m] = bs
-        R[3, m] = dyn - hh * K[6, m] - bs
-        R[4, m] = hh * (_D1 * K[0, m] + _D3 * K[2, m] + _D4 * K[3, m] + _D5 * K[4, m]
-                        + _D6 * K[5, m] + _D7 * K[6, m])
+        R[2, m] = hh * K[0, m] - dyn
+        R[3, m] = 2.0 * dyn - hh * (K[0, m] + K[nfs, m])
+    return 3
 
 
 @jit_inline
-def _err_norm(yold, ynew, err, atol, rtol):
-    acc = 0.0
+def _dense(meth, R, y, ynew, K, hh):
+    """Coefficients of the continuous extension of the step y -> ynew (for `_interp`): the
+    Hermite rows plus rows of D; for DOP853 the extra stages must be in K already
+    (`_extend`). Returns the row count."""
+    _hermite(R, y, ynew, K, hh, _RK_NS[meth] - 1)
+    nx = _RK_NX[meth]
+    nd = _RK_ND[meth]
+    for m in range(N_Y):
+        for r in range(nd):
+            acc = 0.0
+            for j in range(nx):
+                acc += _RK_D[meth, r, j] * K[j, m]
+            R[4 + r, m] = hh * acc
+    return 3 + nd
+
+
+@jit_inline
+def _err_norm(meth, yold, ynew, K, hh, atol, rtol):
+    """Weighted RMS norm of the local error estimate (DOP853: Hairer's blend of its 5th- and
+    3rd-order estimates, which keeps the step from growing where the 5th-order one vanishes
+    by chance)."""
+    ns = _RK_NS[meth]
+    a5 = 0.0
+    a3 = 0.0
     for m in range(N_Y):
         sk = atol[m] + rtol * max(abs(yold[m]), abs(ynew[m]))
-        e = err[m] / sk
-        acc += e * e
-    return math.sqrt(acc / N_Y)
+        e5 = 0.0
+        e3 = 0.0
+        for j in range(ns):
+            e5 += _RK_E[meth, j] * K[j, m]
+            e3 += _RK_E3[meth, j] * K[j, m]
+        e5 /= sk
+        e3 /= sk
+        a5 += e5 * e5
+        a3 += e3 * e3
+    if meth == M_DP5:
+        return hh * math.sqrt(a5 / N_Y)
+    if a5 == 0.0:
+        return 0.0
+    return hh * a5 / math.sqrt((a5 + 0.01 * a3) * N_Y)
 
 
 @jit
@@ -729,7 +789,7 @@ def _initial_step(mp, mi, tx, tk, tdk, t0, y, f0, s0, torque, speed, act, nact, 
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
-        h1 = (0.01 / max(d1, d2)) ** 0.2
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / _RK_Q[mi[I_METHOD]])
     return min(100.0 * h0, h1, mp[P_MAXSTEP])
 
 
@@ -1210,6 +1270,32 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
     return 0
 
 
+@jit_inline
+def _stage(meth, stg, y, K, hh, ytmp):
+    """ytmp = y + hh sum_j a[stg, j] K[j] (zero couplings skipped: DOP853 has many)."""
+    for m in range(N_Y):
+        ytmp[m] = 0.0
+    for j in range(stg):
+        a = _RK_A[meth, stg, j]
+        if a != 0.0:
+            for m in range(N_Y):
+                ytmp[m] += a * K[j, m]
+    for m in range(N_Y):
+        ytmp[m] = y[m] + hh * ytmp[m]
+
+
+@jit
+def _extend(mp, mi, tx, tk, tdk, meth, t, si, y, ynew, K, R, hh, t0, s0, torque, speed, act,
+            nact, sep, dirs, stuck, pw, sc, Sm, ytmp):
+    """Continuous extension of the accepted step t -> t + hh into R (DOP853 first evaluates
+    its three extra stages); returns its row count for `_interp`."""
+    for stg in range(_RK_NS[meth], _RK_NX[meth]):
+        _stage(meth, stg, y, K, hh, ytmp)
+        _rhs(mp, mi, tx, tk, tdk, t + _RK_C[meth, stg] * hh, si, ytmp, t0, s0, torque, speed,
+             act, nact, sep, dirs, stuck, pw, sc, Sm, K[stg])
+    return _dense(meth, R, y, ynew, K, hh)
+
+
 @jit
 def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb, K, R,
            ytmp, ynew, g, gprev, pw, sc, Sm, Lm, Lk, Lv, out):
@@ -1223,6 +1309,9 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     v1 = mp[P_RB1] * speed
     sep = ist[J_SEP]  # contact code, held over the piece
     rtol, maxstep, spacing = mp[P_RTOL], mp[P_MAXSTEP], mp[P_SPACING]
+    meth = mi[I_METHOD]
+    ns = _RK_NS[meth]
+    expo = -1.0 / _RK_Q[meth]
     ng = _n_events(mi, nact, sep)
     fm = _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, sep, dirs,
                     stuck, pw, sc, Sm, gprev)
@@ -1296,25 +1385,19 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 return -1
             si = s0 + v1 * (t + 0.5 * hh - t0)
             tn = lim if (last or at_knot) else t + hh
-            for stg in range(1, 7):
-                for m in range(N_Y):
-                    acc = 0.0
-                    for j in range(stg):
-                        acc += _DP_A[stg, j] * K[j, m]
-                    ytmp[m] = y[m] + hh * acc
-                ts = tn if stg >= 5 else t + _DP_C[stg] * hh
+            for stg in range(1, ns):
+                _stage(meth, stg, y, K, hh, ytmp)
+                c = _RK_C[meth, stg]
+                ts = tn if c == 1.0 else t + c * hh
                 _rhs_stage(mp, mi, tx, tk, tdk, ts, si, ytmp, t0, s0, torque, speed, act,
                            nact, sep, dirs, stuck, pw, sc, Sm, K[stg])
             for m in range(N_Y):
                 ynew[m] = ytmp[m]
-            for m in range(N_Y):
-                ytmp[m] = hh * (_E1 * K[0, m] + _E3 * K[2, m] + _E4 * K[3, m] + _E5 * K[4, m]
-                                + _E6 * K[5, m] + _E7 * K[6, m])
-            err = _err_norm(y, ynew, ytmp, atol, rtol)
+            err = _err_norm(meth, y, ynew, K, hh, atol, rtol)
             if not math.isfinite(err):
                 err = 1e10
             if err <= 1.0:
-                fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** -0.2)
+                fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** expo)
                 if rejected:
                     fac = min(1.0, fac)
                 if (last or at_knot) and hh < h:
@@ -1323,7 +1406,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 else:
                     h = hh * fac
                 break
-            h = hh * max(0.2, 0.9 * err ** -0.2)
+            h = hh * max(0.2, 0.9 * err ** expo)
             rejected = True
         out[O_NSTEPS] += 1.0
         st[T_H] = h
@@ -1331,44 +1414,69 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
         nsub = int(math.ceil(hh / spacing * (1.0 - 1e-12)))
         if nsub < 1:
             nsub = 1
-        if nsub > 1:  # the continuous extension is needed only to sample inside the step
-            _dense(R, y, ynew, K, hh)
-        hit = False
-        th_prev = 0.0
-        th_hit = 1.0
-        for ks in range(1, nsub + 1):
-            if ks == nsub and nsub == 1:
-                # the last stage (FSAL) was evaluated at the step end: reuse it
-                th = 1.0
-                _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
-                fm = sc[S_KM] * sc[S_COMP]
+        # The continuous extension is needed only to sample inside the step. DOP853's costs
+        # three more stages, so its samples are first taken on the cubic Hermite of the step
+        # ends; a fall seen there is re-scanned on the full extension (the end values are
+        # exact either way, so a single crossing is always caught).
+        nf = 0
+        cheap = False
+        fm_end = 0.0
+        if nsub > 1:
+            # the last stage was evaluated at the step end: keep its event values
+            _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
+            fm_end = sc[S_KM] * sc[S_COMP]
+            for e in range(ng):
+                R[R_GEND, e] = g[e]
+            if _RK_NX[meth] > ns:
+                nf = _hermite(R, y, ynew, K, hh, ns - 1)
+                cheap = True
+                for e in range(ng):
+                    R[R_GSAVE, e] = gprev[e]
             else:
+                nf = _extend(mp, mi, tx, tk, tdk, meth, t, si, y, ynew, K, R, hh, t0, s0,
+                             torque, speed, act, nact, sep, dirs, stuck, pw, sc, Sm, ytmp)
+        while True:
+            hit = False
+            th_prev = 0.0
+            th_hit = 1.0
+            for ks in range(1, nsub + 1):
                 if ks == nsub:
                     th = 1.0
-                    for m in range(N_Y):
-                        ytmp[m] = ynew[m]
-                    tk_ = tn
+                    if nsub == 1:
+                        _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
+                        fm = sc[S_KM] * sc[S_COMP]
+                    else:
+                        for e in range(ng):
+                            g[e] = R[R_GEND, e]
+                        fm = fm_end
                 else:
                     th = ks / nsub
-                    _interp(R, th, ytmp)
-                    tk_ = t + th * hh
-                fm = _events_at(mp, mi, tx, tk, tdk, tk_, ytmp, t0, s0, torque, speed,
-                                act, nact, sep, dirs, stuck, pw, sc, Sm, g)
-            if fm > out[O_FMAX]:
-                out[O_FMAX] = fm
-            for e in range(ng):
-                if gprev[e] > 0.0 and g[e] <= 0.0:
-                    hit = True
+                    _interp(R, nf, th, ytmp)
+                    fm = _events_at(mp, mi, tx, tk, tdk, t + th * hh, ytmp, t0, s0, torque,
+                                    speed, act, nact, sep, dirs, stuck, pw, sc, Sm, g)
+                if fm > out[O_FMAX]:
+                    out[O_FMAX] = fm
+                for e in range(ng):
+                    if gprev[e] > 0.0 and g[e] <= 0.0:
+                        hit = True
+                        break
+                if hit:
+                    th_hit = th
                     break
-            if hit:
-                th_hit = th
+                for e in range(ng):
+                    gprev[e] = g[e]
+                th_prev = th
+            if not (hit and cheap):
                 break
+            nf = _extend(mp, mi, tx, tk, tdk, meth, t, si, y, ynew, K, R, hh, t0, s0, torque,
+                         speed, act, nact, sep, dirs, stuck, pw, sc, Sm, ytmp)
+            cheap = False
             for e in range(ng):
-                gprev[e] = g[e]
-            th_prev = th
+                gprev[e] = R[R_GSAVE, e]
         if hit:
             if nsub == 1:
-                _dense(R, y, ynew, K, hh)
+                nf = _extend(mp, mi, tx, tk, tdk, meth, t, si, y, ynew, K, R, hh, t0, s0,
+                             torque, speed, act, nact, sep, dirs, stuck, pw, sc, Sm, ytmp)
             # Refine every falling function on the interpolant (Illinois); keep the earliest.
             best_th = th_hit
             best_e = -1
@@ -1383,7 +1491,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                     if b - a <= tol_th:
                         break
                     c = _illinois_point(a, ga, b, gb)
-                    _interp(R, c, ytmp)
+                    _interp(R, nf, c, ytmp)
                     _events_at(mp, mi, tx, tk, tdk, t + c * hh, ytmp, t0, s0, torque, speed,
                                act, nact, sep, dirs, stuck, pw, sc, Sm, ynew)
                     a, ga, b, gb, side = _illinois(a, ga, b, gb, c, ynew[e], side)
@@ -1392,7 +1500,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             te = t + best_th * hh
             if best_th >= 1.0:
                 te = tn
-            _interp(R, best_th, ytmp)
+            _interp(R, nf, best_th, ytmp)
             for m in range(N_Y):
                 y[m] = ytmp[m]
             _book(mi, st, sep, stuck, te - t0)
@@ -1406,7 +1514,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             return 1
         for m in range(N_Y):
             y[m] = ynew[m]
-            K[0, m] = K[6, m]
+            K[0, m] = K[ns - 1, m]
         t = tn
         if last:
             _book(mi, st, sep, stuck, tb - t0)
@@ -1713,7 +1821,7 @@ class FastEngine(Engine):
     Parameters
     ----------
     params, effects : the gear pair and the effects to include
-    rtol : relative tolerance of the Dormand-Prince 5(4) error control
+    rtol : relative tolerance of the Runge-Kutta error control
     atol : absolute tolerance (all states); default ``rtol`` times typical magnitudes
         (1e-5 m, 1e-3 m/s, 1 J), as the reference
     max_step : largest step (s); default half the period of the highest slip-model mode
@@ -1725,14 +1833,20 @@ class FastEngine(Engine):
     max_events : bound on switches per `advance` call; more raises RuntimeError (a stall)
     exact_lti : with friction off and constant or rectangular stiffness the equations have
         constant coefficients between switches; integrate them with the exact propagator
-        ``expm(A h)`` (`_piece_lti`) instead of Dormand-Prince. False keeps Dormand-Prince
+        ``expm(A h)`` (`_piece_lti`) instead of Runge-Kutta. False keeps Runge-Kutta
         (for comparison).
+    method : ``"dop853"`` (default) or ``"dp5"``, the Runge-Kutta pair (see the module
+        docstring); ``gearpair bench`` compares the two
     """
 
     def __init__(self, params: GearParams | None = None, effects: Effects | None = None,
                  rtol: float = 1e-8, atol: float | None = None, max_step: float | None = None,
                  n_samples: int = 8, sample_spacing: float | None = None, t_tol: float = 1e-14,
-                 max_events: int = 100_000, exact_lti: bool = True) -> None:
+                 max_events: int = 100_000, exact_lti: bool = True,
+                 method: str = "dop853") -> None:
+        if method not in _METHOD_CODE:
+            raise ValueError(f"method = {method!r} is not known; allowed "
+                             f"{', '.join(sorted(_METHOD_CODE))}")
         if not (1e-14 <= rtol <= 1e-2):
             raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
         if not (1 <= int(n_samples) <= 1000):
@@ -1778,6 +1892,8 @@ class FastEngine(Engine):
         # constant coefficients between switches: the exact propagator replaces Runge-Kutta
         mi[I_LTI] = 1 if (fx.friction == "off" and st.kind in ("constant", "rectangular")
                           and exact_lti) else 0
+        mi[I_METHOD] = _METHOD_CODE[method]
+        self.method = method
         self._mp, self._mi = mp, mi
         self._tx = np.ascontiguousarray(st.xi, dtype=float)
         self._tk = np.ascontiguousarray(st.k, dtype=float)
@@ -1802,8 +1918,8 @@ class FastEngine(Engine):
         self._act = np.zeros(n, dtype=np.int64)
         self._offs = np.zeros(3)
         self._kcur = np.zeros(3, dtype=np.int64)
-        self._K = np.zeros((7, N_Y))
-        self._R = np.zeros((5, N_Y))
+        self._K = np.zeros((RK_NK, N_Y))
+        self._R = np.zeros((R_GEND + 1, max(N_Y, n + 2)))
         self._ytmp = np.zeros(N_Y)
         self._ynew = np.zeros(N_Y)
         self._g = np.zeros(n + 2)
@@ -1948,7 +2064,7 @@ class FastEngine(Engine):
                 f"(t = {out[O_TFAIL]:.9g} s): the run stalls; see README 'Limits'")
         if status == STATUS_STEP:
             raise ArithmeticError(
-                f"Dormand-Prince step size underflow at t = {out[O_TFAIL]:.9g} s")
+                f"Runge-Kutta step size underflow at t = {out[O_TFAIL]:.9g} s")
 
     def run_grid(self, grid, torque, speed, load_speed=None) -> dict:
         """Step through ``grid`` (s, from the current time) in one compiled call and record

@@ -13,6 +13,7 @@ The ``gearpair`` package is imported from the FMU's resources folder, where the 
 
 from __future__ import annotations
 
+import functools
 import importlib
 import io
 import math
@@ -97,7 +98,7 @@ _OUTPUT_FIELDS = ("dte", "mesh_force", "friction_force", "output_torque",
                   "input_torque_reaction", "input_torque", "gear1_speed", "gear2_speed",
                   "sliding_velocity")
 _SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
-_ALL_OUTPUTS = tuple(row[0] for row in OUTPUTS)
+_VALUE_ORDER = _OUTPUT_FIELDS[:3] + ("contact_state",) + _OUTPUT_FIELDS[3:]  # `_copy_values`
 
 
 def _import_gearpair(resources: str | None):
@@ -236,8 +237,6 @@ class GearPair(Fmi2Slave):
         self._spec = interface(self._gp)
         self._param_names = tuple(v["name"] for v in self._spec if v["causality"] == "parameter")
         self._get_params = operator.attrgetter(*self._param_names)
-        self._get_shown = operator.attrgetter(*_ALL_OUTPUTS)
-        self._get_finite = operator.attrgetter(*(_OUTPUT_FIELDS + _SUMMARY_FIELDS))
         for v in self._spec:
             start = v["start"]
             if v["type"] == "Integer":
@@ -249,6 +248,7 @@ class GearPair(Fmi2Slave):
             self._register(v)
         self._engine = None
         self._engine_key: tuple | None = None  # parameter values the engine was built with
+        self._params_set = True  # a parameter was set since the last comparison with the key
         self._start_time = 0.0
         self._stepped = False  # at least one step done since initialization
         self._poisoned: str | None = None  # set when a state restore failed
@@ -261,7 +261,13 @@ class GearPair(Fmi2Slave):
                                   description=v["description"])
         if v["causality"] == "parameter":
             kw["initial"] = Fmi2Initial.exact
+            kw["setter"] = functools.partial(self._set_parameter, v["name"])
         self.register_variable(cls(v["name"], **kw))
+
+    def _set_parameter(self, name: str, value) -> None:
+        # a master's set: the next doStep compares the parameters with the engine's
+        setattr(self, name, value)
+        self._params_set = True
 
     def _warn_foreign_package(self) -> None:
         where = os.path.dirname(os.path.abspath(getattr(self._gp, "__file__", None) or
@@ -273,7 +279,7 @@ class GearPair(Fmi2Slave):
                      f"not the copy in the FMU resources {res}", Fmi2Status.warning)
 
     def _param_values(self) -> tuple:
-        # checked on every step (fixed parameters must not change): one C-level call
+        # checked after a master set a parameter (fixed ones must not change): one C call
         return self._get_params(self)
 
     def _build_engine(self):
@@ -316,6 +322,8 @@ class GearPair(Fmi2Slave):
 
     def _ensure_engine(self) -> str | None:
         """Build the engine if needed; return an error message or None."""
+        if self._engine is not None and not self._params_set:
+            return None  # nothing set since the last check (the usual doStep)
         key = self._param_values()
         if self._engine is not None:
             if key != self._engine_key:
@@ -323,6 +331,7 @@ class GearPair(Fmi2Slave):
                                                 strict=True) if a != b]
                 return (f"parameter(s) {', '.join(changed)} changed after initialization; "
                         "they are fixed (re-instantiate or reset the FMU to change them)")
+            self._params_set = False
             return None
         try:
             engine = self._build_engine()
@@ -333,18 +342,20 @@ class GearPair(Fmi2Slave):
         self._engine, self._engine_key = engine, key
         return None
 
-    def _copy_outputs(self, summary=None) -> None:
+    def _values_of(self, summary=None) -> tuple:
+        """(values, figures) for `_copy_values` from the engine's `Outputs` and a step's
+        `StepSummary` (None: no step yet, the figures describe the instant t0)."""
         o = self._engine.outputs()
         values = (o.dte, o.mesh_force, o.friction_force, o.contact_state, o.output_torque,
                   o.input_torque_reaction, o.input_torque, o.gear1_speed, o.gear2_speed,
                   o.sliding_velocity)
-        if summary is None:  # no step yet: the figures describe the instant t0
+        if summary is None:
             cs = int(o.contact_state)
             figures = (1.0 if cs == 2 else 0.0, 1.0 if cs in (0, 3) else 0.0, o.mesh_force, 0)
         else:
             figures = (summary.stick_fraction, summary.separation_fraction,
                        summary.mesh_force_max, summary.n_events)
-        self._copy_values(values, figures)
+        return values, figures
 
     def _copy_values(self, values, figures) -> None:
         """Outputs from the `Outputs` values in field order (after time) and the step figures
@@ -357,11 +368,14 @@ class GearPair(Fmi2Slave):
          self.n_events) = (float(figures[0]), float(figures[1]), float(figures[2]),
                            int(figures[3]))
 
-    def _outputs_finite(self) -> str | None:
-        vals = self._get_finite(self)
-        if math.isfinite(sum(vals)):  # one check on the usual path (inf - inf is nan)
-            return None
-        for name, v in zip(_OUTPUT_FIELDS + _SUMMARY_FIELDS, vals, strict=True):
+    @staticmethod
+    def _not_finite(values, figures) -> str | None:
+        """Name of the first output that is not finite, or None (checked before anything is
+        shown, so a refused step leaves the outputs of the last good one)."""
+        if math.isfinite(sum(values) + figures[0] + figures[1] + figures[2]):
+            return None  # one check on the usual path (inf - inf is nan)
+        for name, v in zip(_VALUE_ORDER + _SUMMARY_FIELDS, tuple(values) + tuple(figures[:3]),
+                           strict=True):
             if not math.isfinite(v):
                 return name
         return None
@@ -388,7 +402,7 @@ class GearPair(Fmi2Slave):
             if msg is None:
                 self._engine.reset(t0=self._start_time, torque=float(self.torque),
                                    speed=float(self.speed), static=True)
-                self._copy_outputs()
+                self._copy_values(*self._values_of())
                 self._stepped = False
                 return
         except Exception as e:  # noqa: BLE001
@@ -427,7 +441,6 @@ class GearPair(Fmi2Slave):
         torque, speed = float(self.torque), float(self.speed)
         snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
         saved = snap() if snap is not None else eng.get_state()
-        shown = self._get_shown(self)
         if self._stepped:
             tol = 1e-9 * max(1.0, abs(t), h)
             if abs(t - eng.time) > tol:
@@ -441,23 +454,22 @@ class GearPair(Fmi2Slave):
             fast = getattr(eng, "advance_values", None)
             if fast is not None:  # the fast engine's plain-number path (inputs checked above)
                 figures = fast(t + h, torque, speed, load_speed)
-                self._copy_values(eng.output_values().tolist(), figures)
+                values = eng.output_values().tolist()
             else:
                 summary = eng.advance(t + h, torque, speed) if load_speed is None else \
                     eng.advance(t + h, torque, speed, load_speed)
-                self._copy_outputs(summary)
-            bad = self._outputs_finite()
+                values, figures = self._values_of(summary)
+            bad = self._not_finite(values, figures)
             if bad is not None:
                 raise ArithmeticError(f"output {bad} is not finite")
         except Exception as e:  # noqa: BLE001
             kind = "" if isinstance(e, (ValueError, ArithmeticError)) else \
                 f"{type(e).__name__}: "
             restored = self._restore_engine(saved)
-            for name, value in zip(_ALL_OUTPUTS, shown, strict=True):
-                setattr(self, name, value)
             return self._error(f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
                                + ("" if restored else "; the engine state could not be "
                                   "restored, further steps are refused"))
+        self._copy_values(values, figures)
         self._stepped = True
         return True
 
@@ -517,6 +529,7 @@ class GearPair(Fmi2Slave):
             return
         for n in names:
             setattr(self, n, values[n])
+        self._params_set = True
         self._engine, self._engine_key = engine, (tuple(key) if key is not None else None)
         self._start_time = s["start_time"]
         self._stepped = s["stepped"]

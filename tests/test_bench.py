@@ -16,7 +16,7 @@ import pytest
 from gearpair import bench, cli
 
 HAS_FMU = all(importlib.util.find_spec(m) is not None for m in ("pythonfmu", "fmpy"))
-ENGINE_METHODS = ("fast", "fast (step 0.001)", *bench.SCIPY_METHODS)
+ENGINE_METHODS = ("fast", "fast (step 0.001)", "fast dp5", *bench.SCIPY_METHODS)
 
 
 @pytest.fixture(scope="module")
@@ -56,10 +56,11 @@ def test_every_method_and_regime_has_a_row(quick):
         assert set(e["best_cpu"]) == set(e["best"])
 
 
-def test_fast_core_converges_as_rtol_tightens(quick):
+@pytest.mark.parametrize("method", ["fast", "fast dp5"])
+def test_fast_core_converges_as_rtol_tightens(quick, method):
     for regime in bench.REGIMES:
         rows = sorted((r for r in quick["work_precision"]
-                       if r["regime"] == regime and r["method"] == "fast"),
+                       if r["regime"] == regime and r["method"] == method),
                       key=lambda r: -r["rtol"])
         assert len(rows) >= 2
         err = [r["err_dte_horizon"] for r in rows]

@@ -185,8 +185,9 @@ def test_fmu_imports_its_bundled_package(fmu_path, tmp_path):
         s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier="GearPair",
                       instanceName="x")
         s.instantiate()
-        print(sys.modules["gearpair"].__file__.startswith(str(d)))
+        print(sys.modules["gearpair"].__file__.startswith(str(d)), flush=True)
         s.terminate(); s.freeInstance()
+        import os; os._exit(0)  # no interpreter teardown after pythonfmu (see conftest.py)
     """)
     r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                        text=True, timeout=120)

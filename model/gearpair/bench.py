@@ -8,7 +8,8 @@ measures in one run, side by side on the same machine:
   Every method starts from the static equilibrium at t = 0 and records DTE and mesh force on
   the same output grid; the error is the largest deviation from a tight reference divided by
   the reference's largest magnitude, the cost the wall time (and the CPU time) per simulated
-  second. Methods: the fast core (`gearpair.fast.FastEngine`) at several tolerances; scipy's
+  second. Methods: the fast core (`gearpair.fast.FastEngine`) at several tolerances, with its
+  default DOP853 and with Dormand-Prince 5(4) (rows ``fast dp5``); scipy's
   RK45, DOP853, Radau and LSODA, run as `gearpair.reference.ReferenceEngine` (scipy's
   ``OdeSolver`` classes, which ``solve_ivp`` drives, stepped segment by segment over the same
   physics); the FMU through fmpy at communication steps 1e-5, 1e-4 and 1e-3 s.
@@ -96,6 +97,8 @@ class Settings:
     fast_rtols : tolerances of the fast core
     fast_steps : communication steps of the fast core: ``dt`` (the common grid, the row
         ``fast``) and coarser ones (rows ``fast (step h)``, sampled every h)
+    fast_alt_methods : other Runge-Kutta pairs of the fast core than its default DOP853
+        (rows ``fast dp5``, on the common grid), to show what the choice of method buys
     scipy_rtols : per scipy method, its tolerances
     run_budget : wall-time limit (s) of one engine run of the work-precision table; a run
         that exceeds it is reported as failed
@@ -120,6 +123,7 @@ class Settings:
     dt: float = 1e-4
     fast_rtols: tuple[float, ...] = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
     fast_steps: tuple[float, ...] = (1e-4, 1e-3)
+    fast_alt_methods: tuple[str, ...] = ("dp5",)
     run_budget: float = 300.0
     scipy_rtols: tuple[tuple[str, tuple[float, ...]], ...] = (
         ("RK45", (1e-5, 1e-6, 1e-7)), ("DOP853", (1e-5, 1e-6, 1e-7)),
@@ -408,6 +412,10 @@ def engine_rows(s: Settings, refs: dict, progress: Progress = _quiet) -> list[di
             for rtol in s.fast_rtols:
                 rows.append(_engine_row(regime, "fast", rtol, s.horizon, s, refs[regime],
                                         step))
+        for alt in s.fast_alt_methods:
+            for rtol in s.fast_rtols:
+                rows.append(_engine_row(regime, f"fast {alt}", rtol, s.horizon, s,
+                                        refs[regime]))
         progress(f"fast core {regime}: {len(s.fast_rtols)} tolerances")
         for method, rtols in s.scipy_rtols:
             for rtol in rtols:
@@ -428,8 +436,10 @@ def _engine_row(regime: str, method: str, rtol: float, horizon: float, s: Settin
     stepped at another one is the method ``fast (step h)``.
     """
     step = s.dt if step is None else step
-    if method == "fast":
+    if method.split()[0] == "fast":
         engine, opts, repeats = "fast", {"rtol": rtol}, s.repeats
+        if method != "fast":  # another Runge-Kutta pair: "fast dp5"
+            opts["method"] = method.split()[1]
         if step != s.dt:
             method = f"fast (step {step:g})"
     else:
@@ -1293,8 +1303,8 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
         raise ImportError("--plot needs matplotlib: pip install 'gearpair[plot]'") from None
     fig = Figure(figsize=(13.0, 7.5), layout="constrained")
     ax = fig.subplots(2, len(REGIMES), sharex=True, sharey="row")
-    markers = {"fast": "o", "RK45": "s", "DOP853": "D", "Radau": "^", "LSODA": "v",
-               "FMU": "*"}  # by the first word of the method
+    markers = {"fast": "o", "fast dp5": "x", "RK45": "s", "DOP853": "D", "Radau": "^",
+               "LSODA": "v", "FMU": "*"}  # by the method, else its first word
     rows = result["work_precision"]
     for j, regime in enumerate(REGIMES):
         mine = [r for r in rows if r["regime"] == regime]
@@ -1311,8 +1321,8 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
                             else (-r["rtol"], -r["step"]))
                 x = [r[f"{clock}_per_sim_s"] for r in rs]
                 y = [max(r[err], 1e-16) for r in rs]
-                a.loglog(x, y, marker=markers.get(key.split()[0], "o"), ms=4, lw=1,
-                         label=key)
+                a.loglog(x, y, marker=markers.get(key, markers.get(key.split()[0], "o")),
+                         ms=4, lw=1, label=key)
                 if key.startswith("FMU"):
                     for r, xx, yy in zip(rs, x, y, strict=True):
                         a.annotate(f"h={r['step']:g}", (xx, yy), fontsize=6,

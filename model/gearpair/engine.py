@@ -117,6 +117,10 @@ class Engine(ABC):
 
 def check_inputs(torque: float, speed: float, load_speed: float | None = None) -> None:
     """Raise ``ValueError`` naming the input unless torque and speed are finite and in range."""
+    if type(torque) is float and type(speed) is float and abs(torque) <= 1e6 and \
+            abs(speed) <= 2e4 and (load_speed is None or (type(load_speed) is float
+                                                          and abs(load_speed) <= 2e4)):
+        return  # the usual case (the FMU's, every step) in one test; nan fails it
     rows = [("torque", torque, 1e6, "N.m"), ("speed", speed, 2e4, "rad/s")]
     if load_speed is not None:
         rows.append(("load_speed", load_speed, 2e4, "rad/s"))

@@ -181,8 +181,8 @@ N_Q = 6
 N_Y = 18  # q, q', 4 energy quadratures (input, damping loss, friction work, parametric),
 Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held per step)
 # summary of one advance (out)
-O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL = range(5)
-N_OUT = 5
+O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ = range(6)  # O_NREJ: rejected steps
+N_OUT = 6
 STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
 # typical magnitudes for the default absolute tolerance (as the reference)
 _SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
@@ -1184,6 +1184,13 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
                   sc, Sm, ytmp, Lv[5], Lm, Lk)
     nsub = 1
     quiet = _lti_quiet(mp, mi, Lm[k], z, cs, W)
+    if quiet:  # no event can fall: the start's force is all that is needed of it
+        fm = km * _comp_of(mp, z, cs)
+    else:
+        fm = _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, cs,
+                        dirs, stuck, pw, sc, Sm, gprev)
+    if fm > out[O_FMAX]:
+        out[O_FMAX] = fm
     if not quiet:
         nsub = max(1, int(math.ceil(htot / mp[P_SPACING] * (1.0 - 1e-12))))
         if nsub > 1:
@@ -1312,6 +1319,9 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     meth = mi[I_METHOD]
     ns = _RK_NS[meth]
     expo = -1.0 / _RK_Q[meth]
+    if mi[I_LTI] != 0:  # no friction: only the separation events, set up there
+        return _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb,
+                          ytmp, g, gprev, pw, sc, Sm, Lm, Lk, Lv, out)
     ng = _n_events(mi, nact, sep)
     fm = _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, sep, dirs,
                     stuck, pw, sc, Sm, gprev)
@@ -1340,9 +1350,6 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     if retest:
         _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, sep, dirs,
                    stuck, pw, sc, Sm, gprev)
-    if mi[I_LTI] != 0:
-        return _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb,
-                          ytmp, g, gprev, pw, sc, Sm, Lm, Lk, Lv, out)
     t = t0
     t_knot = t + _next_knot_dt(mp, mi, s0, speed, act, nact)
     h = st[T_H]
@@ -1408,6 +1415,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 break
             h = hh * max(0.2, 0.9 * err ** expo)
             rejected = True
+            out[O_NREJ] += 1.0
         out[O_NSTEPS] += 1.0
         st[T_H] = h
         # scan the step for falls through zero, samples at most `spacing` apart
@@ -1906,12 +1914,13 @@ class FastEngine(Engine):
             raise ValueError("FastEngine needs the stiffness table on a uniform grid from 0 "
                              "to the path length (MeshStiffness.build makes one)")
         # state
-        self._y = np.zeros(N_Y)
-        self._st = np.zeros(N_ST)
-        self._ist = np.zeros(N_IST, dtype=np.int64)
-        self._dirs = np.ones(n)
-        self._stuck = np.zeros(n, dtype=np.int64)
-        self._prev = np.zeros(n, dtype=np.int64)
+        # state: views into one buffer, so a rollback snapshot is one copy (the FMU takes one
+        # every doStep); the integer parts are int64 views of float64 words
+        cut = np.cumsum([0, N_Y, N_ST, N_IST, n, n, n])
+        self._state = np.zeros(int(cut[-1]))
+        part = [self._state[cut[i]:cut[i + 1]] for i in range(6)]
+        self._y, self._st, self._dirs = part[0], part[1], part[3]
+        self._ist, self._stuck, self._prev = (part[i].view(np.int64) for i in (2, 4, 5))
         self._last = None
         # work arrays (allocated once)
         self._trial = np.zeros(n, dtype=np.int64)
@@ -2004,15 +2013,11 @@ class FastEngine(Engine):
     def snapshot(self) -> tuple:
         """A cheap copy of the whole state for a rollback within this process (`restore`);
         `get_state` is the portable, picklable form."""
-        return (self._y.copy(), self._st.copy(), self._ist.copy(), self._dirs.copy(),
-                self._stuck.copy(), self._prev.copy(), self._last)
+        return self._state.copy(), self._last
 
     def restore(self, snap: tuple) -> None:
         """Return to a `snapshot` of this engine."""
-        y, st, ist, dirs, stuck, prev, last = snap
-        self._y[:], self._st[:], self._ist[:] = y, st, ist
-        self._dirs[:], self._stuck[:], self._prev[:] = dirs, stuck, prev
-        self._last = last
+        self._state[:], self._last = snap
         self._outputs = None
         self._o_fresh = False
 

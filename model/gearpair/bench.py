@@ -600,6 +600,9 @@ def simulate1(r):
             got["total_s" + key] = total
             got["loop_s" + key] = (marks[-1][i] - marks[0][i]) * n / (n - 1) if n > 1 \
                 else total
+        if r.get("core"):
+            # the core as the FMU drives it, right after: same process, same minute
+            got["core_s"], got["core_s_cpu"] = core_calls(r["core"])
         if best is None:
             best = got
         else:
@@ -607,6 +610,20 @@ def simulate1(r):
     if r.get("signals"):
         best["signals"] = {k: [float(x) for x in res[k]] for k in ["time"] + r["signals"]}
     return best
+
+def core_calls(c):
+    # one advance + outputs call per step on the FMU's bundled gearpair (which the FMU
+    # instances imported), from the static start
+    from gearpair import make_engine
+    from gearpair.effects import Effects
+    eng = make_engine(None, Effects(friction=c["friction"]), "fast", rtol=c["rtol"])
+    eng.reset(0.0, c["torque"], c["speed"])
+    h, n = c["step"], int(round(c["t_end"] / c["step"]))
+    t0, c0 = time.perf_counter(), time.process_time()
+    for i in range(1, n + 1):
+        eng.advance(i * h, c["torque"], c["speed"])
+        eng.outputs()
+    return time.perf_counter() - t0, time.process_time() - c0
 
 def init(start, step):
     fmu = instance()
@@ -746,11 +763,13 @@ def _output_names(fmu: str | Path) -> list[str]:
 
 
 def fmu_measurements(s: Settings, refs: dict, fmu: Path, noop: Path,
-                     core_rows: list[dict], progress: Progress = _quiet) -> dict:
-    """FMU work-precision rows, costs at a 1e-3 s step against the core and the floor, and
-    the cost of one set+doStep+get call (GearPair and no-op, in separate child processes).
+                     progress: Progress = _quiet) -> dict:
+    """FMU work-precision rows, costs at a 1e-3 s step against the core (timed in the FMU's
+    process) and the floor, and the cost of one set+doStep+get call (GearPair and no-op, in
+    separate child processes).
     """
     from .effects import Effects
+    from .params import OperatingPoint
 
     outputs = _output_names(fmu)
     first = fmu_start(fmu, "stick_slip", s.fmu_rtols[-1])
@@ -762,9 +781,12 @@ def fmu_measurements(s: Settings, refs: dict, fmu: Path, noop: Path,
                 runs[f"wp|{regime}|{rtol!r}|{h!r}"] = dict(
                     start=start, t_end=s.horizon, step=h, outputs=["dte", "mesh_force"],
                     signals=["dte", "mesh_force"], repeats=1)
+            op = OperatingPoint()
+            core = dict(friction=FRICTION_OF[regime], rtol=rtol, torque=op.torque,
+                        speed=op.speed, t_end=s.step_horizon, step=1e-3)
             runs[f"step|{regime}|{rtol!r}"] = dict(start=start, t_end=s.step_horizon,
                                                    step=1e-3, outputs=outputs,
-                                                   repeats=s.repeats)
+                                                   repeats=s.repeats, core=core)
     trivial = Effects(stiffness="constant", friction="off")
     call = dict(start=fmu_start(fmu, "no_friction", s.fmu_rtols[-1], trivial), step=1e-3,
                 n=s.calls, outputs=outputs, repeats=s.repeats)
@@ -801,15 +823,16 @@ def fmu_measurements(s: Settings, refs: dict, fmu: Path, noop: Path,
     for regime in REGIMES:
         for rtol in s.fmu_rtols:
             r = got["runs"][f"step|{regime}|{rtol!r}"]
-            core = next(c for c in core_rows if c["regime"] == regime and c["rtol"] == rtol)
             row = {"regime": regime, "rtol": rtol, "step": 1e-3, "horizon_s": horizon,
-                   "error": r.get("error") or core["error"]}
+                   "error": r.get("error")}
             steps.append(row)
             if row["error"]:
                 continue
-            # the core as the FMU drives it: one advance + outputs call per step
-            for key, core_key in (("", "calls_wall_per_sim_s"), ("_cpu", "calls_cpu_per_sim_s")):
-                c = core[core_key]
+            # the core as the FMU drives it (one advance + outputs call per step), timed in
+            # the FMU's process after each FMU run: a slow phase of a shared machine cannot
+            # fall on one side of the ratio only
+            for key in ("", "_cpu"):
+                c = r["core_s" + key] / horizon
                 fmu_x, floor_x = r["loop_s" + key] / horizon, floor["loop_s" + key] / horizon
                 allowed = TARGET_FMU_FACTOR * c + floor_x
                 row.update({
@@ -932,17 +955,31 @@ def cost_table(s: Settings, rtol: float = 1e-8, progress: Progress = _quiet) -> 
                        "error": err})
         progress(f"scene {scene.name}: " + (f"failed: {err}" if err else
                                             f"{took.wall / scene.t_end:.3f} s per simulated s"))
+    # Rungs are timed round-robin (each repeat runs every rung once; the best counts), so a
+    # slow phase of this shared machine hits every rung alike instead of some rungs only.
+    best: dict[tuple[str, str], Timing] = {}
+    fails: dict[str, str] = {}
+    for _ in range(max(1, s.repeats)):
+        for label, kw in LADDER:
+            if label in fails:
+                continue
+            fx = Effects(**kw)
+            for run, dt in LADDER_RUNS:
+                took, err = _best_of(
+                    lambda dt=dt, fx=fx: _record(make_engine(None, fx, "fast", rtol=rtol),
+                                                 s.cost_t_end, dt)[0], 1)
+                if err:
+                    fails[label] = err
+                    break
+                best[label, run] = best.get((label, run), NEVER).best(took)
     ladder = []
     for label, kw in LADDER:
         fx = Effects(**kw)
-        row = {"rung": label, **kw, "error": None}
-        for run, dt in LADDER_RUNS:
-            took, err = _best_of(
-                lambda dt=dt, fx=fx: _record(make_engine(None, fx, "fast", rtol=rtol),
-                                             s.cost_t_end, dt)[0], s.repeats)
+        row = {"rung": label, **kw, "error": fails.get(label)}
+        for run, _dt in LADDER_RUNS:
+            took = None if row["error"] else best[label, run]
             row["wall_" + run] = None if took is None else took.wall / s.cost_t_end
             row["cpu_" + run] = None if took is None else took.cpu / s.cost_t_end
-            row["error"] = row["error"] or err
         if not row["error"]:
             # the work, free of timing noise: solver steps (an exact-propagator piece counts
             # one) per simulated second, and the time per step
@@ -1095,7 +1132,7 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
         with tempfile.TemporaryDirectory(prefix="gearpair_bench_fmu_") as tmp:
             try:  # a failing FMU section is reported, the other sections still run
                 fmu, noop = build_fmus(fmu_dir or tmp)
-                fm = fmu_measurements(s, refs, fmu, noop, core, progress)
+                fm = fmu_measurements(s, refs, fmu, noop, progress)
                 result["fmu"] = {"steps": fm["steps"], "calls": fm["calls"]}
                 rows.extend(fm["rows"])
                 if s.startup:

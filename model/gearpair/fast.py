@@ -503,20 +503,25 @@ def _n_events(mi, nact, cs):
 
 
 @jit_inline
+def _sep_event_values(mp, mi, cs, d, g):
+    """Separation events of contact code ``cs`` at DTE ``d`` into g; returns their count."""
+    if mi[I_SEP] == 0:
+        return 0
+    if cs == 0:
+        g[0] = d
+    elif cs == 2:
+        g[0] = -(d + mp[P_BACK])
+    else:
+        g[0] = -d
+        if mi[I_BACK] != 0:
+            g[1] = d + mp[P_BACK]
+    return _n_sep_events(mi, cs)
+
+
+@jit_inline
 def _event_values(mp, mi, nact, cs, act, dirs, pw, sc, g):
     """`switching.event_values`: positive while the state holds."""
-    n = 0
-    if mi[I_SEP] != 0:
-        d = sc[S_DELTA]
-        if cs == 0:
-            g[0] = d
-        elif cs == 2:
-            g[0] = -(d + mp[P_BACK])
-        else:
-            g[0] = -d
-            if mi[I_BACK] != 0:
-                g[1] = d + mp[P_BACK]
-        n = _n_sep_events(mi, cs)
+    n = _sep_event_values(mp, mi, cs, sc[S_DELTA], g)
     if mi[I_FRIC] == FR_STICK and cs == 0:
         for i in range(nact):
             if pw[W_STK, i] != 0.0:
@@ -640,8 +645,8 @@ def _pair_v(mp, mi, s, y, speed, j):
     s1m = mp[P_S1A] + xi
     s2m = mp[P_S1S2] - s1m
     nom = speed * (mp[P_RATIO] * s2m - s1m)
-    if mi[I_SLIDE] == 1:
-        return nom - (-y[6] + s1m / mp[P_RB1] * y[8] + y[9] + s2m / mp[P_RB2] * y[11])
+    if mi[I_SLIDE] == 1:  # the arithmetic of `_evaluate`, to the last bit
+        return nom - (-y[6] + s1m * mp[P_IRB1] * y[8] + y[9] + s2m * mp[P_IRB2] * y[11])
     return nom + y[6] - y[9]
 
 
@@ -801,6 +806,30 @@ def _events_at(mp, mi, tx, tk, tdk, t, yk, t0, s0, torque, speed, act, nact, sep
               sc, Sm)
     _event_values(mp, mi, nact, sep, act, dirs, pw, sc, g)
     return sc[S_KM] * sc[S_COMP]
+
+
+@jit
+def _events_light(mp, mi, tx, tk, tdk, t, yk, t0, s0, torque, speed, act, nact, sep, dirs,
+                  stuck, pw, sc, Sm, g):
+    """`_events_at` where no pair is stuck: the event functions (DTE, slip velocities) and
+    the mesh force are then plain expressions of the state, so the forces, the friction and
+    the accelerations are not evaluated (the samples inside a step need only these)."""
+    if mi[I_FRIC] == FR_STICK and sep == 0 and _any_stuck(mi, stuck):
+        return _events_at(mp, mi, tx, tk, tdk, t, yk, t0, s0, torque, speed, act, nact, sep,
+                          dirs, stuck, pw, sc, Sm, g)
+    s = s0 + mp[P_RB1] * speed * (t - t0)
+    delta = yk[1] - yk[4] + yk[2] + yk[5]
+    n = _sep_event_values(mp, mi, sep, delta, g)
+    if mi[I_FRIC] == FR_STICK and sep == 0:
+        for i in range(nact):
+            g[n + i] = dirs[act[i]] * _pair_v(mp, mi, s, yk, speed, act[i])
+    if sep == 1:
+        return 0.0
+    km = 0.0
+    for i in range(nact):
+        xi = _pair_xi(mp, s, act[i])
+        km += _pair_k(mp, mi, tx, tk, tdk, xi, xi, nact)
+    return km * (delta + mp[P_BACK] if sep == 2 else delta)
 
 
 @jit
@@ -1460,8 +1489,9 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 else:
                     th = ks / nsub
                     _interp(R, nf, th, ytmp)
-                    fm = _events_at(mp, mi, tx, tk, tdk, t + th * hh, ytmp, t0, s0, torque,
-                                    speed, act, nact, sep, dirs, stuck, pw, sc, Sm, g)
+                    fm = _events_light(mp, mi, tx, tk, tdk, t + th * hh, ytmp, t0, s0,
+                                       torque, speed, act, nact, sep, dirs, stuck, pw, sc,
+                                       Sm, g)
                 if fm > out[O_FMAX]:
                     out[O_FMAX] = fm
                 for e in range(ng):

@@ -179,11 +179,25 @@ class Trajectory:
         fig.savefig(Path(path), dpi=120)
 
 
+class _Constant:
+    """A constant input as a function of time, with the whole-grid `sample` that the compiled
+    recorder is fed (a Python call per point would cost more than the exact propagator's
+    step)."""
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def __call__(self, t: float) -> float:
+        return self.value
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        return np.full(np.shape(t), self.value)
+
+
 def _as_fn(x: Input) -> Callable[[float], float]:
     if callable(x):
         return x
-    v = float(x)
-    return lambda t: v
+    return _Constant(float(x))
 
 
 def simulate(params: GearParams | None = None, effects: Effects | None = None,

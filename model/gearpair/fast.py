@@ -1180,7 +1180,9 @@ def _mv(P, z, out):
         out[i] = acc
 
 
-@jit
+# inlined into its single caller `_piece`: the call alone (some 25 arrays by value) was a
+# tenth of a quiet constant-coefficient output point
+@jit_inline
 def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb, ytmp, g,
                gprev, pw, sc, Sm, Lm, Lk, Lv, out):
     """`_piece` for constant coefficients: exact steps z <- expm(A h) z. A quiet piece
@@ -1573,7 +1575,7 @@ def _any_stuck(mi, stuck):
     return False
 
 
-@jit
+@jit_inline  # single caller (`_advance`)
 def _segment(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act, act, tb,
              K, R, ytmp, ynew, g, gprev, pw, sc, Sm, Lm, Lk, Lv, out):
     """One segment between known boundaries (ReferenceEngine.advance's loop body)."""

@@ -258,3 +258,27 @@ def test_run_grid_bad_input_and_failure(compiled):
         e.run_grid(grid + 1.0, TORQUE, SPEED)
     with pytest.raises(RuntimeError, match="contact switches"):
         e.run_grid(np.linspace(0.0, 0.05, 2), TORQUE, SPEED)
+
+
+def test_unknown_method_is_refused_with_the_choices():
+    with pytest.raises(ValueError, match=r"method = 'rk4'.*dop853, dp5"):
+        FastEngine(method="rk4")
+
+
+def test_snapshot_restore_returns_to_the_same_trajectory(compiled):
+    """The rollback the FMU takes every doStep: one copy of the state buffer, restored, then
+    the same step again gives the same bits (integer parts included: contact code, stuck
+    flags, event count)."""
+    e = FastEngine(None, Effects(friction="stick_slip"))
+    e.reset(0.0, TORQUE, SPEED)
+    e.advance(0.0145, TORQUE, SPEED)  # just before the first stick
+    snap = e.snapshot()
+    first = e.advance_values(0.0160, TORQUE, SPEED)
+    y1, ist1, stuck1 = e._y.copy(), e._ist.copy(), e._stuck.copy()
+    e.advance(0.02, TORQUE, 2 * SPEED)  # wander off
+    e.restore(snap)
+    assert e.time == 0.0145
+    again = e.advance_values(0.0160, TORQUE, SPEED)
+    assert again == first and first[0] > 0.0  # a stick inside the step
+    assert e._y.tolist() == y1.tolist() and e._ist.tolist() == ist1.tolist()
+    assert e._stuck.tolist() == stuck1.tolist()

@@ -612,18 +612,13 @@ def simulate1(r):
     return best
 
 def core_calls(c):
-    # one advance + outputs call per step on the FMU's bundled gearpair (which the FMU
-    # instances imported), from the static start
+    # `gearpair.bench._record_calls` of the FMU's bundled package (which the FMU instances
+    # imported): the loop an FMU master drives, without the FMU
     from gearpair import make_engine
-    from gearpair.effects import Effects
-    eng = make_engine(None, Effects(friction=c["friction"]), "fast", rtol=c["rtol"])
-    eng.reset(0.0, c["torque"], c["speed"])
-    h, n = c["step"], int(round(c["t_end"] / c["step"]))
-    t0, c0 = time.perf_counter(), time.process_time()
-    for i in range(1, n + 1):
-        eng.advance(i * h, c["torque"], c["speed"])
-        eng.outputs()
-    return time.perf_counter() - t0, time.process_time() - c0
+    from gearpair.bench import _record_calls, regime_effects
+    took = _record_calls(make_engine(None, regime_effects(c["regime"]), "fast",
+                                     rtol=c["rtol"]), c["t_end"], c["step"])
+    return took.wall, took.cpu
 
 def init(start, step):
     fmu = instance()
@@ -769,7 +764,6 @@ def fmu_measurements(s: Settings, refs: dict, fmu: Path, noop: Path,
     separate child processes).
     """
     from .effects import Effects
-    from .params import OperatingPoint
 
     outputs = _output_names(fmu)
     first = fmu_start(fmu, "stick_slip", s.fmu_rtols[-1])
@@ -781,9 +775,7 @@ def fmu_measurements(s: Settings, refs: dict, fmu: Path, noop: Path,
                 runs[f"wp|{regime}|{rtol!r}|{h!r}"] = dict(
                     start=start, t_end=s.horizon, step=h, outputs=["dte", "mesh_force"],
                     signals=["dte", "mesh_force"], repeats=1)
-            op = OperatingPoint()
-            core = dict(friction=FRICTION_OF[regime], rtol=rtol, torque=op.torque,
-                        speed=op.speed, t_end=s.step_horizon, step=1e-3)
+            core = dict(regime=regime, rtol=rtol, t_end=s.step_horizon, step=1e-3)
             runs[f"step|{regime}|{rtol!r}"] = dict(start=start, t_end=s.step_horizon,
                                                    step=1e-3, outputs=outputs,
                                                    repeats=s.repeats, core=core)

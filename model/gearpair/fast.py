@@ -479,7 +479,7 @@ _evaluate_inl = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inl
 
 @jit_inline
 def _pin_supports(sc):
-    """Torsional model: x1, y1, x2, y2 are not integrated (rigid supports)."""
+    """Torsional model: no forces on x1, y1, x2, y2 (rigid supports), which stay at 0."""
     sc[S_F + 0] = 0.0
     sc[S_F + 1] = 0.0
     sc[S_F + 3] = 0.0
@@ -746,6 +746,7 @@ def _err_norm(meth, yold, ynew, K, hh, atol, rtol):
     3rd-order estimates, which keeps the step from growing where the 5th-order one vanishes
     by chance)."""
     ns = _RK_NS[meth]
+    blend = meth == M_DOP853  # DP5 has no 3rd-order estimate
     a5 = 0.0
     a3 = 0.0
     for m in range(N_Y):
@@ -754,12 +755,13 @@ def _err_norm(meth, yold, ynew, K, hh, atol, rtol):
         e3 = 0.0
         for j in range(ns):
             e5 += _RK_E[meth, j] * K[j, m]
-            e3 += _RK_E3[meth, j] * K[j, m]
+            if blend:
+                e3 += _RK_E3[meth, j] * K[j, m]
         e5 /= sk
         e3 /= sk
         a5 += e5 * e5
         a3 += e3 * e3
-    if meth == M_DP5:
+    if not blend:
         return hh * math.sqrt(a5 / N_Y)
     if a5 == 0.0:
         return 0.0
@@ -1347,12 +1349,12 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     v1 = mp[P_RB1] * speed
     sep = ist[J_SEP]  # contact code, held over the piece
     rtol, maxstep, spacing = mp[P_RTOL], mp[P_MAXSTEP], mp[P_SPACING]
-    meth = mi[I_METHOD]
-    ns = _RK_NS[meth]
-    expo = -1.0 / _RK_Q[meth]
     if mi[I_LTI] != 0:  # no friction: only the separation events, set up there
         return _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, tb,
                           ytmp, g, gprev, pw, sc, Sm, Lm, Lk, Lv, out)
+    meth = mi[I_METHOD]
+    ns = _RK_NS[meth]
+    expo = -1.0 / _RK_Q[meth]
     ng = _n_events(mi, nact, sep)
     fm = _events_at(mp, mi, tx, tk, tdk, t0, y, t0, s0, torque, speed, act, nact, sep, dirs,
                     stuck, pw, sc, Sm, gprev)
@@ -1945,7 +1947,6 @@ class FastEngine(Engine):
         if np.max(np.abs(self._tx - mp[P_DX] * np.arange(ntab))) > 1e-9 * mp[P_DX]:
             raise ValueError("FastEngine needs the stiffness table on a uniform grid from 0 "
                              "to the path length (MeshStiffness.build makes one)")
-        # state
         # state: views into one buffer, so a rollback snapshot is one copy (the FMU takes one
         # every doStep); the integer parts are int64 views of float64 words
         cut = np.cumsum([0, N_Y, N_ST, N_IST, n, n, n])
@@ -2004,8 +2005,7 @@ class FastEngine(Engine):
         _reset_settle(self._mp, self._mi, self._y, self._st, self._ist, self._dirs, self._stuck,
                       self._act)
         self._last = None
-        self._outputs = None
-        self._o_fresh = False
+        self._stale()
 
     def get_state(self) -> dict:
         npv = int(self._ist[J_NPREV])
@@ -2039,6 +2039,10 @@ class FastEngine(Engine):
             self._ist[J_NPREV] = len(prev)
             self._prev[:len(prev)] = np.asarray(prev, dtype=np.int64)
         self._last = state.get("last")
+        self._stale()
+
+    def _stale(self) -> None:
+        """The state changed: both output caches (`output_values`, `outputs`) are stale."""
         self._outputs = None
         self._o_fresh = False
 
@@ -2050,8 +2054,7 @@ class FastEngine(Engine):
     def restore(self, snap: tuple) -> None:
         """Return to a `snapshot` of this engine."""
         self._state[:], self._last = snap
-        self._outputs = None
-        self._o_fresh = False
+        self._stale()
 
     def advance(self, t_end: float, torque: float, speed: float,
                 load_speed: float | None = None) -> StepSummary:
@@ -2078,8 +2081,7 @@ class FastEngine(Engine):
         self._y[Y_AD] = 0.0 if load_speed is None else \
             -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
         out = self._out
-        self._outputs = None
-        self._o_fresh = False
+        self._stale()
         _advance(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk, self._y,
                  self._st, self._ist, self._dirs, self._stuck, self._trial, self._prev,
                  self._act, float(t_end), float(torque), float(speed), self._offs, self._kcur,
@@ -2140,8 +2142,7 @@ class FastEngine(Engine):
         yad = np.zeros(n - 1) if L is None else \
             np.ascontiguousarray(-mp[P_RB2] * (L - W * mp[P_RATIO]))
         rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
-        self._outputs = None
-        self._o_fresh = False
+        self._stale()
         filled = _run_grid(self._mp, self._mi, self.atol, self._tx, self._tk, self._tdk,
                            self._y, self._st, self._ist, self._dirs, self._stuck, self._trial,
                            self._prev, self._act, grid, T, W, yad, self._offs, self._kcur,

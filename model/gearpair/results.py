@@ -179,25 +179,25 @@ class Trajectory:
         fig.savefig(Path(path), dpi=120)
 
 
-class _Constant:
-    """A constant input as a function of time, with the whole-grid `sample` that the compiled
-    recorder is fed (a Python call per point would cost more than the exact propagator's
-    step)."""
+@dataclass(frozen=True)
+class Constant:
+    """The same value at all times (an input schedule; `sample` feeds a whole grid to the
+    compiled recorder in one call)."""
 
-    def __init__(self, value: float) -> None:
-        self.value = value
+    value: float
 
     def __call__(self, t: float) -> float:
         return self.value
 
     def sample(self, t: np.ndarray) -> np.ndarray:
-        return np.full(np.shape(t), self.value)
+        """Values at the times ``t`` (one vectorized call for a whole grid)."""
+        return np.full(np.shape(t), float(self.value))
 
 
 def _as_fn(x: Input) -> Callable[[float], float]:
     if callable(x):
         return x
-    return _Constant(float(x))
+    return Constant(float(x))
 
 
 def simulate(params: GearParams | None = None, effects: Effects | None = None,

@@ -25,7 +25,7 @@ import numpy as np
 
 from .effects import Effects, StiffnessSpec
 from .params import RPM, GearParams, OperatingPoint, check_range
-from .results import UNITS, Trajectory, simulate
+from .results import UNITS, Constant, Trajectory, simulate
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -51,20 +51,6 @@ class SceneError(ValueError):
 
 
 # -- input schedules (callables of time, SI values) ----------------------------------------------
-@dataclass(frozen=True)
-class Constant:
-    """The same value at all times."""
-
-    value: float
-
-    def __call__(self, t: float) -> float:
-        return self.value
-
-    def sample(self, t: np.ndarray) -> np.ndarray:
-        """Values at the times ``t`` (one vectorized call for a whole grid)."""
-        return np.full(np.shape(t), float(self.value))
-
-
 @dataclass(frozen=True)
 class Ramp:
     """``start`` until ``t0``, linear to ``end`` at ``t1`` (s), ``end`` after."""

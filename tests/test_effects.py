@@ -144,6 +144,52 @@ def test_friction_off_decouples_x():
     assert np.max(np.abs(y[[1, 2, 4, 5]])) > 1e-7  # while y and u vibrate
 
 
+@pytest.mark.parametrize("fx, held", [
+    (dict(dof="torsional", stiffness="constant"), [0, 1, 3, 4, 6, 7, 9, 10, 14, 15, 17]),
+    (dict(dof="torsional", friction="stick_slip", sliding="full"),
+     [0, 1, 3, 4, 6, 7, 9, 10, 17]),
+    (dict(), [0, 3, 6, 9, 14, 17]),                 # 6-DOF, time-varying, friction off
+    (dict(friction="nominal"), [17]),
+    (dict(friction="nominal", stiffness="rectangular"), [15, 17]),
+])
+def test_switched_off_effects_leave_components_out_of_the_steps(fx, held):
+    """The Runge-Kutta steps integrate only the components a scene's effects move: the
+    translations the model pins or nothing pushes, the energy quadratures of absent terms
+    and the held load-shaft rate stay out (`fast.integrated_components`)."""
+    from gearpair.fast import N_Y, FastEngine
+
+    e = FastEngine(P, Effects(**{"friction": "off", **fx}))
+    assert sorted(set(range(N_Y)) - set(e.integrated.tolist())) == held
+
+
+def test_friction_off_steps_exactly_as_friction_with_mu_zero():
+    """Friction off leaves x1, x2, their rates and the friction work out of the steps;
+    regularized friction with mu = 0 integrates them (all zero rates; nominal friction would
+    add a step boundary at the pitch point). The two must agree bit for bit: the held
+    components are exactly what integrating them gives, and the error control takes the
+    same steps."""
+    kw = dict(t_end=0.02, torque=3900.0, speed=300 * RPM, dt=1e-3, engine="fast", rtol=1e-8)
+    off = simulate(P, Effects(friction="off"), **kw)
+    mu0 = simulate(P.replace(mu=0.0), Effects(friction="regularized"), **kw)
+    assert np.max(np.abs(off["dte"] - off["dte"].mean())) > 1e-7  # the mesh does vibrate
+    for name in ("dte", "mesh_force", "gear1_speed", "output_torque"):
+        np.testing.assert_array_equal(off[name], mu0[name], err_msg=name)
+
+
+def test_set_state_refuses_motion_a_reduced_model_cannot_carry():
+    """A state with x1 moving cannot be continued without friction (x is held at rest):
+    ValueError naming the component, and the engine keeps its state."""
+    e = make_engine(P, Effects(friction="off"), "fast")
+    e.reset(0.0, 3900.0, 100 * RPM)
+    before = e.get_state()
+    bad = dict(before, y=before["y"].copy())
+    bad["y"][6] = 1e-3  # x1' (m/s)
+    with pytest.raises(ValueError, match=r"y\[6\].*not simulated"):
+        e.set_state(bad)
+    np.testing.assert_array_equal(e.get_state()["y"], before["y"])
+    e.set_state(before)  # an admissible state is taken
+
+
 def test_separation_off_is_linear():
     """Separation off: the spring also pulls, so a negative torque gives a negative force
     T/rb1 and delta = T/(rb1 km), like the positive case mirrored."""

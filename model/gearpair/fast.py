@@ -158,8 +158,8 @@ P_MINV, P_C, P_KB = 0, 6, 12
 N_MP = 41
 # int flags (mi)
 (I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB, I_BACK,
- I_TORS, I_LTI, I_METHOD) = range(14)
-N_MI = 14
+ I_TORS, I_LTI, I_METHOD, I_NIX) = range(15)
+I_IX = 15  # mi[I_IX:I_IX + mi[I_NIX]]: the components of y the Runge-Kutta steps integrate
 KIND_CONSTANT, KIND_TABLE = 0, 1
 FR_OFF, FR_NOMINAL, FR_REG, FR_STICK = 0, 1, 2, 3
 _FRICTION_CODE = {"off": FR_OFF, "nominal": FR_NOMINAL, "regularized": FR_REG,
@@ -180,12 +180,37 @@ N_IST = 4
 N_Q = 6
 N_Y = 18  # q, q', 4 energy quadratures (input, damping loss, friction work, parametric),
 Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held per step)
+N_MI = I_IX + N_Y
 # summary of one advance (out)
 O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ = range(6)  # O_NREJ: rejected steps
 N_OUT = 6
 STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
 # typical magnitudes for the default absolute tolerance (as the reference)
 _SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
+
+
+
+def integrated_components(torsional: bool, friction: bool, varying: bool) -> np.ndarray:
+    """Indices of the components of y that a Runge-Kutta step integrates.
+
+    A switched-off effect leaves components whose rate is identically zero; they are held,
+    not carried through the stages, the error norm and the continuous extension:
+    x1, x2 and their rates without friction (nothing else pushes along the off-line of
+    action, so they stay at rest), all four support translations in the torsional model,
+    the friction work without friction, the parametric power with a constant mesh
+    stiffness, and the load-shaft end's rate a' (held per step) always.
+    """
+    keep = [2, 5, 8, 11, 12, 13, Y_A]  # u1, u2, their rates, input work, damping loss, a
+    if not torsional:
+        keep += [1, 4, 7, 10]  # y1, y2 along the line of action
+        if friction:
+            keep += [0, 3, 6, 9]  # x1, x2: driven only by the friction forces
+    if friction:
+        keep.append(14)
+    if varying:
+        keep.append(15)
+    return np.array(sorted(keep), dtype=np.int64)
+
 
 # Explicit Runge-Kutta pairs with a first-same-as-last stage, as tableaux of one shape so one
 # compiled step serves both: Dormand & Prince 5(4) (7 stages, continuous extension of order 4
@@ -696,11 +721,13 @@ def _switch(mp, mi, tx, tk, tdk, label, s, y, torque, speed, act, nact, ist, dir
 
 
 @jit_inline
-def _interp(R, nf, theta, out):
+def _interp(mi, R, nf, theta, out):
     """Continuous extension of the accepted step at fraction ``theta``:
-    R0 + th (R1 + (1 - th) (R2 + th (R3 + ...))) over rows 1..nf."""
+    R0 + th (R1 + (1 - th) (R2 + th (R3 + ...))) over rows 1..nf; the components that are
+    not integrated (`integrated_components`) are left as they are in ``out``."""
     th1 = 1.0 - theta
-    for m in range(N_Y):
+    for k in range(mi[I_NIX]):
+        m = mi[I_IX + k]
         acc = 0.0
         for i in range(nf, 0, -1):
             acc = (R[i, m] + acc) * (theta if i % 2 == 1 else th1)
@@ -724,14 +751,15 @@ def _hermite(R, y, ynew, K, hh, nfs):
 
 
 @jit_inline
-def _dense(meth, R, y, ynew, K, hh):
+def _dense(mi, meth, R, y, ynew, K, hh):
     """Coefficients of the continuous extension of the step y -> ynew (for `_interp`): the
     Hermite rows plus rows of D; for DOP853 the extra stages must be in K already
     (`_extend`). Returns the row count."""
     _hermite(R, y, ynew, K, hh, _RK_NS[meth] - 1)
     nx = _RK_NX[meth]
     nd = _RK_ND[meth]
-    for m in range(N_Y):
+    for k in range(mi[I_NIX]):
+        m = mi[I_IX + k]
         for r in range(nd):
             acc = 0.0
             for j in range(nx):
@@ -741,15 +769,20 @@ def _dense(meth, R, y, ynew, K, hh):
 
 
 @jit_inline
-def _err_norm(meth, yold, ynew, K, hh, atol, rtol):
+def _err_norm(mi, meth, yold, ynew, K, hh, atol, rtol):
     """Weighted RMS norm of the local error estimate (DOP853: Hairer's blend of its 5th- and
     3rd-order estimates, which keeps the step from growing where the 5th-order one vanishes
-    by chance)."""
+    by chance).
+
+    The mean is over all N_Y components, the held ones contributing their exact zero: the
+    step sequence does not depend on whether a component whose rate vanishes is integrated
+    (friction off steps as friction with mu = 0)."""
     ns = _RK_NS[meth]
     blend = meth == M_DOP853  # DP5 has no 3rd-order estimate
     a5 = 0.0
     a3 = 0.0
-    for m in range(N_Y):
+    for k in range(mi[I_NIX]):
+        m = mi[I_IX + k]
         sk = atol[m] + rtol * max(abs(yold[m]), abs(ynew[m]))
         e5 = 0.0
         e3 = 0.0
@@ -1333,7 +1366,7 @@ def _extend(mp, mi, tx, tk, tdk, meth, t, si, y, ynew, K, R, hh, t0, s0, torque,
         _stage(meth, stg, y, K, hh, ytmp)
         _rhs(mp, mi, tx, tk, tdk, t + _RK_C[meth, stg] * hh, si, ytmp, t0, s0, torque, speed,
              act, nact, sep, dirs, stuck, pw, sc, Sm, K[stg])
-    return _dense(meth, R, y, ynew, K, hh)
+    return _dense(mi, meth, R, y, ynew, K, hh)
 
 
 @jit
@@ -1393,6 +1426,8 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     if not (h > 0.0):
         h = _initial_step(mp, mi, tx, tk, tdk, t0, y, K[0], s0, torque, speed, act, nact, sep,
                           dirs, stuck, pw, sc, Sm, atol, ytmp, ynew, min(tb, t_knot))
+    for m in range(N_Y):  # the held components of the stages and samples (`_stage`)
+        ytmp[m] = y[m]
     while True:
         rejected = False
         while True:  # attempt one step
@@ -1433,7 +1468,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                            nact, sep, dirs, stuck, pw, sc, Sm, K[stg])
             for m in range(N_Y):
                 ynew[m] = ytmp[m]
-            err = _err_norm(meth, y, ynew, K, hh, atol, rtol)
+            err = _err_norm(mi, meth, y, ynew, K, hh, atol, rtol)
             if not math.isfinite(err):
                 err = 1e10
             if err <= 1.0:
@@ -1492,7 +1527,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                         fm = fm_end
                 else:
                     th = ks / nsub
-                    _interp(R, nf, th, ytmp)
+                    _interp(mi, R, nf, th, ytmp)
                     fm = _events_light(mp, mi, tx, tk, tdk, t + th * hh, ytmp, t0, s0,
                                        torque, speed, act, nact, sep, dirs, stuck, pw, sc,
                                        Sm, g)
@@ -1533,7 +1568,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                     if b - a <= tol_th:
                         break
                     c = _illinois_point(a, ga, b, gb)
-                    _interp(R, nf, c, ytmp)
+                    _interp(mi, R, nf, c, ytmp)
                     _events_at(mp, mi, tx, tk, tdk, t + c * hh, ytmp, t0, s0, torque, speed,
                                act, nact, sep, dirs, stuck, pw, sc, Sm, ynew)
                     a, ga, b, gb, side = _illinois(a, ga, b, gb, c, ynew[e], side)
@@ -1542,7 +1577,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             te = t + best_th * hh
             if best_th >= 1.0:
                 te = tn
-            _interp(R, nf, best_th, ytmp)
+            _interp(mi, R, nf, best_th, ytmp)
             for m in range(N_Y):
                 y[m] = ytmp[m]
             _book(mi, st, sep, stuck, te - t0)
@@ -1935,6 +1970,11 @@ class FastEngine(Engine):
         mi[I_LTI] = 1 if (fx.friction == "off" and st.kind in ("constant", "rectangular")
                           and exact_lti) else 0
         mi[I_METHOD] = _METHOD_CODE[method]
+        ix = integrated_components(bool(m.torsional), fx.friction != "off", bool(mi[I_VARY]))
+        mi[I_NIX] = len(ix)
+        mi[I_IX:I_IX + len(ix)] = ix
+        self.integrated = ix  # components of y the Runge-Kutta steps integrate
+        self._held_q = np.setdiff1d(np.arange(2 * N_Q), ix)  # q, q' that stay at rest
         self.method = method
         self._mp, self._mi = mp, mi
         self._tx = np.ascontiguousarray(st.xi, dtype=float)
@@ -2022,8 +2062,15 @@ class FastEngine(Engine):
         }
 
     def set_state(self, state: dict) -> None:
+        y = np.asarray(state["y"], dtype=float)
+        moving = [int(i) for i in self._held_q if y[i] != 0.0]
+        if moving:
+            raise ValueError(
+                f"state: y[{moving[0]}] = {y[moving[0]]!r}, but with these effects "
+                f"components {[int(i) for i in self._held_q]} of y (x1, y1, x2, y2 at "
+                "indices 0, 1, 3, 4 and their rates 6 + i) are not simulated and must be 0")
         self._st[T_T], self._st[T_S] = float(state["t"]), float(state["s"])
-        self._y[:] = np.asarray(state["y"], dtype=float)
+        self._y[:] = y
         self._st[T_TORQUE], self._st[T_SPEED] = float(state["torque"]), float(state["speed"])
         self._ist[J_SEP] = (2 if state.get("back") else 1) if state["separated"] else 0
         self._dirs[:] = np.asarray(state["dirs"], dtype=float)

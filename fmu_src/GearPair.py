@@ -101,6 +101,51 @@ _SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
 _VALUE_ORDER = _OUTPUT_FIELDS[:3] + ("contact_state",) + _OUTPUT_FIELDS[3:]  # `_copy_values`
 
 
+_EXIT_GUARDED: set[str] = set()  # binaries whose exit hook `_guard_pythonfmu_exit` set
+
+
+def _guard_pythonfmu_exit(resources: str | None) -> str | None:
+    """Work around a use-after-free at process exit in pythonfmu 0.7's Linux binary.
+
+    The binary holds its interpreter guard in a static ``shared_ptr`` and empties it again
+    from an ELF destructor (``finalizePythonInterpreter``). At exit the C++ runtime destroys
+    the static first (its ``__cxa_atexit`` handler), so the ELF destructor then decrements a
+    reference count inside the freed block. valgrind shows the invalid access on every run;
+    whether glibc notices depends on the heap layout, and then the process aborts after its
+    work is done ("corrupted double-linked list", in libgfortran's exit code).
+
+    In a Python host the guard owns nothing (the host initialised Python), so emptying the
+    static from Python's own exit hook, which runs before any C++ exit handler, turns both
+    later releases into no-ops; instances still alive keep their own reference. A host that
+    is not Python has the guard finalise the interpreter from the guard's own thread, which
+    then runs Python's exit hooks: there the hook must not touch the static, so it is set only
+    when the slave is created on Python's main thread (not the case there: that thread is the
+    guard's). Returns the binary guarded, or None.
+    """
+    import threading
+
+    if not sys.platform.startswith("linux") or not resources or \
+            threading.current_thread() is not threading.main_thread():
+        return None
+    folder = os.path.join(os.path.dirname(os.path.abspath(resources)), "binaries", "linux64")
+    try:
+        import atexit
+        import ctypes
+
+        names = sorted(n for n in os.listdir(folder) if n.endswith(".so"))
+        if len(names) != 1:
+            return None
+        path = os.path.join(folder, names[0])
+        # the copy already loaded by the host (RTLD_NOLOAD: never load a second one)
+        release = ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_LAZY).finalizePythonInterpreter
+    except (OSError, AttributeError, ImportError):
+        return None
+    if path not in _EXIT_GUARDED:
+        _EXIT_GUARDED.add(path)
+        atexit.register(release)
+    return path
+
+
 def _import_gearpair(resources: str | None):
     """Import the bundled ``gearpair`` (the resources folder goes first on ``sys.path``)."""
     if resources and os.path.isdir(resources) and resources not in sys.path:
@@ -232,6 +277,7 @@ class GearPair(Fmi2Slave):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
+        self._exit_guard = _guard_pythonfmu_exit(self.resources)
         self._gp = _import_gearpair(self.resources)
         self._warn_foreign_package()
         self._spec = interface(self._gp)

@@ -5,23 +5,8 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 .venv/bin/python build_fmu.py
 mkdir -p out
-# fmpy's simulate_fmu, what `fmpy simulate` runs; the process then leaves without the
-# interpreter teardown, which crashes now and then after pythonfmu slaves were loaded
-# (docs/hosts.md, "Known problem"), once the results are written
-STOP_TIME="${STOP_TIME:-0.5}" .venv/bin/python - <<'PY'
-import os
-import sys
-
-from fmpy import simulate_fmu
-from fmpy.util import write_csv
-
-res = simulate_fmu("dist/GearPair.fmu", stop_time=float(os.environ["STOP_TIME"]),
-                   output_interval=1e-4)
-write_csv("out/default_run.csv", res)
-sys.stdout.flush()
-sys.stderr.flush()
-os._exit(0)
-PY
+.venv/bin/fmpy simulate dist/GearPair.fmu --stop-time "${STOP_TIME:-0.5}" \
+    --output-interval 1e-4 --output-file out/default_run.csv
 .venv/bin/python - <<'PY'
 import numpy as np
 d = np.genfromtxt("out/default_run.csv", delimiter=",", names=True)

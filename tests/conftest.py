@@ -45,10 +45,11 @@ def pytest_sessionfinish(session, exitstatus):
 def pytest_unconfigure(config):
     """Skip interpreter finalization once pythonfmu slaves were loaded in this process.
 
-    Each pythonfmu FMU binary embeds its own view of the Python runtime; tearing down the
-    interpreter after fmpy freed them sometimes aborts with a heap error ("corrupted
-    double-linked list") *after* every test has passed and the report is printed, which would
-    turn a green run red. All output is flushed first, so nothing is lost.
+    pythonfmu's binary releases freed memory at process exit (docs/hosts.md, "Known
+    problem"). GearPair.fmu defuses that in Python hosts, but the driveline tests load the
+    example motor and load FMUs, plain pythonfmu slaves without the guard: their exit can
+    abort with a heap error *after* every test has passed and the report is printed, which
+    would turn a green run red. All output is flushed first, so nothing is lost.
     """
     import os
     import sys

@@ -173,10 +173,13 @@ def test_simulate_fmu_gives_finite_outputs(fmu_path):
     assert res["gear1_speed"][0] == pytest.approx(100 * RPM)
 
 
-def test_fmu_imports_its_bundled_package(fmu_path, tmp_path):
-    # also after an earlier simulation in the process whose extracted folder is deleted
+def test_fmu_imports_its_bundled_package_and_exits_cleanly(fmu_path, tmp_path):
+    """Two copies of the FMU in one Python host, the first one's folder deleted: the second
+    imports its own bundled package, both binaries get the exit guard against pythonfmu's
+    use-after-free (`GearPair._guard_pythonfmu_exit`), and the interpreter's normal
+    teardown ends with status 0."""
     code = textwrap.dedent(f"""
-        import sys
+        import os, sys
         from fmpy import extract, read_model_description, simulate_fmu
         from fmpy.fmi2 import FMU2Slave
         simulate_fmu({str(fmu_path)!r}, stop_time=1e-3, output_interval=1e-3)
@@ -186,13 +189,15 @@ def test_fmu_imports_its_bundled_package(fmu_path, tmp_path):
                       instanceName="x")
         s.instantiate()
         print(sys.modules["gearpair"].__file__.startswith(str(d)), flush=True)
+        guarded = sys.modules["GearPair"]._EXIT_GUARDED
+        mine = os.path.join(os.path.abspath(d), "binaries", "linux64", "GearPair.so")
+        print(len(guarded), mine in guarded, flush=True)
         s.terminate(); s.freeInstance()
-        import os; os._exit(0)  # no interpreter teardown after pythonfmu (see conftest.py)
     """)
     r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                        text=True, timeout=120)
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip().endswith("True")
+    assert r.stdout.split() == ["True", "2", "True"]
 
 
 def test_nan_input_is_refused_and_step_can_be_repeated(md, unzipdir):

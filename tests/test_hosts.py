@@ -38,6 +38,11 @@ sys.path.insert(0, str(HOSTS))
 
 from hosts_common import INT_OUTPUTS, OUTPUTS, run_fmpy, value_references  # noqa: E402
 
+# Imported before any test loads an FMU in this process: an FMU imports its bundled copy of
+# gearpair when none is loaded yet, and its folder is gone once the FMU is freed.
+from gearpair import Effects, GearParams  # noqa: E402
+from gearpair.reference import ReferenceEngine  # noqa: E402
+
 pytestmark = pytest.mark.fmu
 
 RPM = 2.0 * math.pi / 60.0
@@ -70,10 +75,21 @@ def _import_or_skip(module: str, hint: str):
         pytest.skip(f"{module} cannot load its native library ({e}); {hint}")
 
 
+def _host_module(name: str):
+    """Load examples/hosts/<name>.py by path: examples/driveline has modules of the same
+    names, and which one a bare import finds depends on the order tests were collected."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"hosts_{name}", HOSTS / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 # -- Python hosts ------------------------------------------------------------------------------
 def test_libcosimpy_two_instances(fmu_path):
     _import_or_skip("libcosimpy", "pip install libcosimpy")
-    import run_libcosim
+    run_libcosim = _host_module("run_libcosim")
 
     res = run_libcosim.run(str(fmu_path), CASES, h_ns=round(H * 1e9), n_steps=N_STEPS)
     for name, case in CASES.items():
@@ -85,7 +101,7 @@ def test_libcosimpy_two_instances(fmu_path):
 
 def test_ecospy_two_instances(fmu_path):
     _import_or_skip("ecospy", "it needs the Debian package libtbb12 (scripts/setup.sh)")
-    import run_ecospy
+    run_ecospy = _host_module("run_ecospy")
 
     res = run_ecospy.run(str(fmu_path), CASES, h=H, n_steps=N_STEPS)
     for name, case in CASES.items():
@@ -146,8 +162,6 @@ def test_c_host_variable_steps(fmu_path, tmp_path):
     assert rows.shape == (n + 1, 1 + len(OUTPUTS) + len(INT_OUTPUTS))
     host = {o: rows[1:, 1 + j] for j, o in enumerate(OUTPUTS + INT_OUTPUTS)}
 
-    from gearpair import Effects, GearParams
-    from gearpair.reference import ReferenceEngine
 
     eng = ReferenceEngine(GearParams(), Effects(), rtol=RTOL)
     eng.reset(0.0, 2500.0, 100 * RPM, static=True)

@@ -189,16 +189,17 @@ STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
 _SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
 
 
-
 def integrated_components(torsional: bool, friction: bool, varying: bool) -> np.ndarray:
     """Indices of the components of y that a Runge-Kutta step integrates.
 
-    A switched-off effect leaves components whose rate is identically zero; they are held,
-    not carried through the stages, the error norm and the continuous extension:
-    x1, x2 and their rates without friction (nothing else pushes along the off-line of
+    A switched-off effect leaves components whose rate is identically zero, and they are
+    held: the error norm, the continuous extension and the event samples skip them. These
+    are x1, x2 and their rates without friction (nothing else pushes along the off-line of
     action, so they stay at rest), all four support translations in the torsional model,
     the friction work without friction, the parametric power with a constant mesh
-    stiffness, and the load-shaft end's rate a' (held per step) always.
+    stiffness, and always the load-shaft end's rate a' (held per step). Only the stage
+    sums (`_stage`, `_hermite`) run over all N_Y components: there the held ones add exact
+    zeros in SIMD lanes, which costs less than skipping them through this list.
     """
     keep = [2, 5, 8, 11, 12, 13, Y_A]  # u1, u2, their rates, input work, damping loss, a
     if not torsional:
@@ -1426,7 +1427,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     if not (h > 0.0):
         h = _initial_step(mp, mi, tx, tk, tdk, t0, y, K[0], s0, torque, speed, act, nact, sep,
                           dirs, stuck, pw, sc, Sm, atol, ytmp, ynew, min(tb, t_knot))
-    for m in range(N_Y):  # the held components of the stages and samples (`_stage`)
+    for m in range(N_Y):  # held components: y's values, which `_interp` leaves in place
         ytmp[m] = y[m]
     while True:
         rejected = False

@@ -111,6 +111,9 @@ class Settings:
     calls : number of set+doStep+get calls timed per FMU
     repeats : timed runs of the cheap measurements (the best counts)
     cost_t_end : simulated time of each scene and ladder run
+    ladder_repeats : rounds of the effect ladder (each runs every rung once; the best of
+        each rung counts). A round costs about half a second, and neighbouring rungs differ
+        by a few per cent, so it takes more rounds than ``repeats`` to rank them
     startup : measure the first instantiation with an empty and a warm numba cache
     memory : measure the peak RSS of a ``memory_t_end`` run recorded every 1e-4 s
     fmu : run the FMU sections (needs pythonfmu and fmpy)
@@ -137,6 +140,7 @@ class Settings:
     calls: int = 2000
     repeats: int = 3
     cost_t_end: float = 0.3
+    ladder_repeats: int = 9
     startup: bool = True
     memory: bool = False
     memory_t_end: float = 100.0
@@ -154,7 +158,7 @@ QUICK = Settings(
     scipy_rtols=(("RK45", (1e-5, 1e-6)), ("DOP853", (1e-5, 1e-6)), ("Radau", (1e-5,)),
                  ("LSODA", (1e-5,))),
     check_horizon=0.0005, check_regimes=("stick_slip",), step_horizon=0.02, calls=150,
-    repeats=1, cost_t_end=0.01, startup=False, run_budget=60.0)
+    repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0)
 FULL = Settings(
     name="full", windows=tuple((r, 0.02) for r in REGIMES),
     fast_rtols=(1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11),
@@ -162,7 +166,7 @@ FULL = Settings(
                  ("DOP853", (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)),
                  ("Radau", (1e-4, 1e-5, 1e-6, 1e-7)), ("LSODA", (1e-4, 1e-5, 1e-6, 1e-7))),
     check_horizon=0.02, fmu_rtols=(1e-6, 1e-8), step_horizon=2.0, calls=5000, repeats=5,
-    cost_t_end=0.5, memory=True)
+    cost_t_end=0.5, ladder_repeats=15, memory=True)
 PRESETS = {"quick": QUICK, "default": DEFAULT, "full": FULL}
 
 Progress = Callable[[str], None]
@@ -917,7 +921,8 @@ LADDER_RUNS = (("step_1e-3", 1e-3), ("out_1e-4", 1e-4))  # communication step of
 
 def cost_table(s: Settings, rtol: float = 1e-8, progress: Progress = _quiet) -> dict:
     """Time per simulated second of every shipped scene and of the effect ladder (fast
-    engine, best of ``repeats``, kernels already loaded), with ratios to stick-slip.
+    engine, best of ``repeats`` for a scene and of ``ladder_repeats`` for a rung, kernels
+    already loaded), with ratios to stick-slip.
 
     Scenes run as shipped (their step, output interval and rtol) over their first
     ``cost_t_end`` s, construction included. Ladder rungs run at the default point with
@@ -951,7 +956,7 @@ def cost_table(s: Settings, rtol: float = 1e-8, progress: Progress = _quiet) -> 
     # slow phase of this shared machine hits every rung alike instead of some rungs only.
     best: dict[tuple[str, str], Timing] = {}
     fails: dict[str, str] = {}
-    for _ in range(max(1, s.repeats)):
+    for _ in range(max(1, s.ladder_repeats)):
         for label, kw in LADDER:
             if label in fails:
                 continue

@@ -32,7 +32,7 @@ def fig04_mesh_stiffness(out: str | Path = DEFAULT_OUT, quick: bool = False) -> 
     for j in range(g.n_pairs):
         xi = np.mod(s + j * g.base_pitch, g.period_length)
         on = xi < g.path_length
-        kj = np.where(on, np.interp(xi, k.xi, k.k), np.nan)
+        kj = np.where(on, k.pairs(np.minimum(xi, g.path_length), 1), np.nan)
         ax.plot(s / g.base_pitch, kj / 1e9, "--", lw=1, label=f"tooth pair {j + 1}")
     ax.plot(s / g.base_pitch, total / 1e9, "k-", lw=1.6, label="total $k_m(t)$")
     ax.axhline(k.km_mean / 1e9, color="0.5", lw=0.8, ls=":",

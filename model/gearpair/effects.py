@@ -44,6 +44,7 @@ class StiffnessSpec:
         single and double contact with time mean ``km_mean``. ``table``: per-pair stiffness
         from ``table`` (positions along the path of contact from its start A, m; stiffness
         N/m), linearly interpolated and scaled to the mean unless ``scale_to_mean`` is False.
+        The potential-energy law is represented by a cubic spline on 41 knots (`stiffness`).
     table : tuple of (position_m, stiffness_n_per_m) pairs, optional
     scale_to_mean : bool
         Scale the law so that the time mean of the total mesh stiffness is ``km_mean``.

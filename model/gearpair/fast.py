@@ -160,7 +160,8 @@ N_MP = 41
 (I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB, I_BACK,
  I_TORS, I_LTI, I_METHOD, I_NIX) = range(15)
 I_IX = 15  # mi[I_IX:I_IX + mi[I_NIX]]: the components of y the Runge-Kutta steps integrate
-KIND_CONSTANT, KIND_TABLE = 0, 1
+KIND_CONSTANT, KIND_TABLE, KIND_CUBIC = 0, 1, 2  # KIND_CUBIC: tk holds 4 spline coefficients
+#                                                  per interval (`MeshStiffness.cubic`)
 FR_OFF, FR_NOMINAL, FR_REG, FR_STICK = 0, 1, 2, 3
 _FRICTION_CODE = {"off": FR_OFF, "nominal": FR_NOMINAL, "regularized": FR_REG,
                   "stick_slip": FR_STICK}
@@ -308,18 +309,27 @@ def _pair_k(mp, mi, tx, tk, tdk, xi, xi_idx, nact):
     if mi[I_KIND] == KIND_CONSTANT:
         return mp[P_KMEAN] / max(nact, 1)
     i = _table_index(mp, mi, xi_idx)
-    return tk[i] + (xi - tx[i]) * tdk[i]
+    d = xi - tx[i]
+    if mi[I_KIND] == KIND_CUBIC:
+        c = 4 * i
+        return ((tk[c + 3] * d + tk[c + 2]) * d + tk[c + 1]) * d + tk[c]
+    return tk[i] + d * tdk[i]
 
 
 @jit_inline
 def _pair_kd(mp, mi, tx, tk, tdk, xi, xi_idx, nact, pw, i_pair):
-    """`_pair_k`, also storing the slope d k/d xi of the interval in pw[W_DK]."""
+    """`_pair_k`, also storing the slope d k/d xi in pw[W_DK]."""
     if mi[I_KIND] == KIND_CONSTANT:
         pw[W_DK, i_pair] = 0.0
         return mp[P_KMEAN] / max(nact, 1)
     i = _table_index(mp, mi, xi_idx)
+    d = xi - tx[i]
+    if mi[I_KIND] == KIND_CUBIC:
+        c = 4 * i
+        pw[W_DK, i_pair] = (3.0 * tk[c + 3] * d + 2.0 * tk[c + 2]) * d + tk[c + 1]
+        return ((tk[c + 3] * d + tk[c + 2]) * d + tk[c + 1]) * d + tk[c]
     pw[W_DK, i_pair] = tdk[i]
-    return tk[i] + (xi - tx[i]) * tdk[i]
+    return tk[i] + d * tdk[i]
 
 
 @jit
@@ -625,8 +635,9 @@ _rhs_stage = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline
 def _next_knot_dt(mp, mi, s, speed, act, nact):
     """Time until an active pair reaches the next knot of the stiffness table (inf if none).
 
-    The piecewise-linear k(xi) has a kink at every knot; a Runge-Kutta step across one loses
-    its order, so steps end on knots (the step sequence continues: the state is C^1 there).
+    A table law (linear) has a kink at every knot, a spline a jump in its third derivative;
+    a Runge-Kutta step across one loses its order, so steps end on knots (the step sequence
+    continues: the state is C^1 there).
     """
     if mi[I_VARY] == 0 or mi[I_NTAB] <= 2 or speed == 0.0:
         return np.inf
@@ -1600,10 +1611,12 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             st[T_T] = tb
             return 0
         if at_knot:
-            # next table interval: the parametric power changes its slope there
             t_knot = t + _next_knot_dt(mp, mi, s0 + v1 * (t - t0), speed, act, nact)
-            si = s0 + v1 * (t + 0.5 * min(h, t_knot - t, tb - t) - t0)
-            K[0, 15] = _param_rate(mp, mi, tdk, si, y, act, nact, sep, speed)
+            if mi[I_KIND] == KIND_TABLE:
+                # next table interval: the parametric power changes its slope there (a
+                # spline's slope is continuous at its knots)
+                si = s0 + v1 * (t + 0.5 * min(h, t_knot - t, tb - t) - t0)
+                K[0, 15] = _param_rate(mp, mi, tdk, si, y, act, nact, sep, speed)
 
 @jit_inline
 def _any_stuck(mi, stuck):
@@ -1988,6 +2001,10 @@ class FastEngine(Engine):
         if np.max(np.abs(self._tx - mp[P_DX] * np.arange(ntab))) > 1e-9 * mp[P_DX]:
             raise ValueError("FastEngine needs the stiffness table on a uniform grid from 0 "
                              "to the path length (MeshStiffness.build makes one)")
+        if st.cubic is not None:
+            mi[I_KIND] = KIND_CUBIC
+            self._tk = np.ascontiguousarray(st.cubic, dtype=float).ravel()
+            self._tdk = np.ascontiguousarray(st.cubic[:, 1], dtype=float)
         # state: views into one buffer, so a rollback snapshot is one copy (the FMU takes one
         # every doStep); the integer parts are int64 views of float64 words
         cut = np.cumsum([0, N_Y, N_ST, N_IST, n, n, n])

@@ -277,7 +277,7 @@ class GearPair(Fmi2Slave):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self._exit_guard = _guard_pythonfmu_exit(self.resources)
+        _guard_pythonfmu_exit(self.resources)
         self._gp = _import_gearpair(self.resources)
         self._warn_foreign_package()
         self._spec = interface(self._gp)

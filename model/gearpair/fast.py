@@ -1969,7 +1969,8 @@ class FastEngine(Engine):
         mp[P_SPACING] = self.sample_spacing
         mi = np.zeros(N_MI, dtype=np.int64)
         mi[I_NP] = n
-        mi[I_KIND] = KIND_CONSTANT if st.kind == "constant" else KIND_TABLE
+        mi[I_KIND] = KIND_CONSTANT if st.kind == "constant" else \
+            KIND_CUBIC if st.cubic is not None else KIND_TABLE
         mi[I_VARY] = 0 if st.kind in ("constant", "rectangular") else 1
         mi[I_SEP] = 1 if fx.separation else 0
         mi[I_FRIC] = _FRICTION_CODE[fx.friction]
@@ -1992,8 +1993,12 @@ class FastEngine(Engine):
         self.method = method
         self._mp, self._mi = mp, mi
         self._tx = np.ascontiguousarray(st.xi, dtype=float)
-        self._tk = np.ascontiguousarray(st.k, dtype=float)
-        self._tdk = np.diff(self._tk) / np.diff(self._tx)
+        if st.cubic is not None:  # 4 coefficients per interval; tdk: the slope at its start
+            self._tk = np.ascontiguousarray(st.cubic, dtype=float).ravel()
+            self._tdk = np.ascontiguousarray(st.cubic[:, 1], dtype=float)
+        else:
+            self._tk = np.ascontiguousarray(st.k, dtype=float)
+            self._tdk = np.diff(self._tk) / np.diff(self._tx)
         ntab = len(self._tx)
         mi[I_NTAB] = ntab
         mp[P_DX] = g.path_length / (ntab - 1)
@@ -2001,10 +2006,6 @@ class FastEngine(Engine):
         if np.max(np.abs(self._tx - mp[P_DX] * np.arange(ntab))) > 1e-9 * mp[P_DX]:
             raise ValueError("FastEngine needs the stiffness table on a uniform grid from 0 "
                              "to the path length (MeshStiffness.build makes one)")
-        if st.cubic is not None:
-            mi[I_KIND] = KIND_CUBIC
-            self._tk = np.ascontiguousarray(st.cubic, dtype=float).ravel()
-            self._tdk = np.ascontiguousarray(st.cubic[:, 1], dtype=float)
         # state: views into one buffer, so a rollback snapshot is one copy (the FMU takes one
         # every doStep); the integer parts are int64 views of float64 words
         cut = np.cumsum([0, N_Y, N_ST, N_IST, n, n, n])

@@ -176,6 +176,26 @@ def test_friction_off_steps_exactly_as_friction_with_mu_zero():
         np.testing.assert_array_equal(off[name], mu0[name], err_msg=name)
 
 
+def test_nominal_friction_reverses_at_the_pitch_point_without_rejected_steps():
+    """The pitch point is a segment boundary, so the step after it must use the new friction
+    direction in all its stages. With the direction taken at the boundary itself (nom a
+    rounding error from 0) the first stage kept the old one and the error test rejected
+    10-21 attempts in a row at every crossing; elsewhere a window has at most 2."""
+    p = GearParams()
+    speed = 100 * RPM
+    worst = {}
+    for friction in ("off", "nominal"):
+        eng = make_engine(p, Effects(friction=friction), "fast", rtol=1e-8)
+        eng.reset(0.0, 3900.0, speed)
+        rej = []
+        for i in range(1, 401):  # 0.04 s: two pitch-point crossings at 55 Hz mesh frequency
+            eng.advance(i * 1e-4, 3900.0, speed)
+            rej.append(eng.rejected_steps)
+        worst[friction] = max(rej)
+    assert worst["off"] <= 3
+    assert worst["nominal"] <= worst["off"] + 1
+
+
 def test_set_state_refuses_motion_a_reduced_model_cannot_carry():
     """A state with x1 moving cannot be continued without friction (x is held at rest):
     ValueError naming the component, and the engine keeps its state."""

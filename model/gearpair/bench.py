@@ -986,9 +986,12 @@ def cost_table(s: Settings, rtol: float = 1e-8, progress: Progress = _quiet) -> 
             eng = make_engine(None, fx, "fast", rtol=rtol)
             eng.reset(0.0, op.torque, op.speed)
             n = int(round(s.cost_t_end / 1e-3))
-            steps = sum(eng.advance(i * 1e-3, op.torque, op.speed).n_steps
-                        for i in range(1, n + 1))
+            steps = rejected = 0
+            for i in range(1, n + 1):
+                steps += eng.advance(i * 1e-3, op.torque, op.speed).n_steps
+                rejected += eng.rejected_steps
             row["steps_per_sim_s"] = steps / s.cost_t_end
+            row["rejected_per_sim_s"] = rejected / s.cost_t_end
             row["us_per_step"] = 1e6 * row["wall_step_1e-3"] / row["steps_per_sim_s"]
         ladder.append(row)
         progress(f"ladder {label}: " + (f"failed: {row['error']}" if row["error"] else
@@ -1306,10 +1309,11 @@ def report(result: dict) -> str:
             for clk in ("wall", "cpu"):
                 heads += [f"{clk} {what}", "ratio"]
                 cols += [f"{clk}_{run}"]
-        heads += ["steps/s", "us/step"]
+        heads += ["steps/s", "rejected/s", "us/step"]
         out.append(table(heads, [[r["rung"], *[x for k in cols for x in (
             _fmt(r[k]), _fmt(r["ratio_" + k], ".2f"))], _fmt(r.get("steps_per_sim_s"), ".3g"),
-            _fmt(r.get("us_per_step"))] for r in cost["ladder"]]))
+            _fmt(r.get("rejected_per_sim_s"), ".3g"), _fmt(r.get("us_per_step"))]
+            for r in cost["ladder"]]))
         out += [f"  {r['rung']} failed: {r['error']}" for r in cost["ladder"] if r["error"]]
         out.append("")
     mem = result.get("memory")

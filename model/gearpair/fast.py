@@ -437,7 +437,10 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, di
         pw[W_STK, i] = 0.0
         pw[W_LAMEX, i] = 0.0
         if fric == FR_NOMINAL:
-            f = mu * abs(normal) * _sgn(nom, 0.0)
+            # the direction of the segment (s_idx lies inside it): at a pitch-point boundary
+            # nom is a rounding error from zero and its sign at s may be the old one
+            xs = mp[P_S1A] + pw[W_XI, i] + (s_idx - s)
+            f = mu * abs(normal) * _sgn(speed * (mp[P_RATIO] * (mp[P_S1S2] - xs) - xs), 0.0)
         elif fric == FR_REG:
             f = mu * abs(normal) * math.tanh(v / mp[P_VEPS])
         elif fric == FR_STICK:
@@ -2262,6 +2265,12 @@ class FastEngine(Engine):
             + 0.5 * m.p.kr2 * ((y[U2] - y[Y_A]) ** 2 - y[U2] ** 2)
         return {"stored": float(stored), "input": float(y[12]), "damping": float(y[13]),
                 "friction": float(y[14]), "parametric": float(y[15])}
+
+    @property
+    def rejected_steps(self) -> int:
+        """Runge-Kutta step attempts the error test rejected in the last `advance` (work that
+        `StepSummary.n_steps` does not count)."""
+        return int(self._out[O_NREJ])
 
     @property
     def stick_time(self) -> float:

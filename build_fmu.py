@@ -357,7 +357,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
         # that an FMU instantiated later in this process imports its own bundled copy.
         sys.path[:] = saved_path
         for name in set(sys.modules) - saved_modules:
-            if name in ("GearPair", "gearpair") or name.startswith("gearpair."):
+            if name.partition(".")[0] in ("GearPair", "gearpair", "_gearpair_fmu"):
                 del sys.modules[name]
     return fmu
 

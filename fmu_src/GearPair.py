@@ -7,14 +7,17 @@ out of the slave (pythonfmu would turn any exception into fmi2Fatal): every prob
 with fmi2Error and the step returns False (fmi2Discard) with the state left as it was.
 
 The ``gearpair`` package is imported from the FMU's resources folder, where the builder
-(``build_fmu.py``) puts a copy of it. Importing this module does not import ``gearpair``;
-`interface()` and the slave's constructor do.
+(``build_fmu.py``) puts a copy of it, under the private name ``_gearpair_fmu`` (`BUNDLE`),
+and the resources folder pythonfmu puts on ``sys.path`` comes off it again: a Python host
+keeps its own ``gearpair``, imported before or after the FMU. Importing this module imports
+neither; `interface()` and the slave's constructor do.
 """
 
 from __future__ import annotations
 
 import functools
 import importlib
+import importlib.util
 import io
 import math
 import operator
@@ -29,6 +32,7 @@ from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Boolean, Integer, Real
 
 STATE_FORMAT = "gearpair-fmu-state/1"
+BUNDLE = "_gearpair_fmu"  # import name of the bundled package (never ``gearpair``)
 RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
 
 # Choices of the integer-coded structural parameters: FMU name -> (Effects field, codes).
@@ -146,22 +150,60 @@ def _guard_pythonfmu_exit(resources: str | None) -> str | None:
     return path
 
 
+def _unlist_resources(resources: str | None) -> None:
+    """Take the resources folder off ``sys.path`` again.
+
+    pythonfmu's binary puts it first on ``sys.path`` to import this script and leaves it
+    there, so in a Python host a later ``import gearpair`` would find the FMU's copy (and
+    fail once the host deleted the folder) instead of the host's own. This module is
+    imported by then and the bundled package needs no ``sys.path`` entry (`_import_gearpair`).
+    Only in an extracted FMU (a ``binaries`` folder beside it; fmpy extracts no more than
+    the two): pythonfmu's builder instantiates the slave with the script's own folder, which
+    it removes itself.
+    """
+    if resources and os.path.isdir(os.path.join(os.path.dirname(os.path.abspath(resources)),
+                                                "binaries")):
+        where = os.path.abspath(resources)
+        sys.path[:] = [p for p in sys.path if not (p and os.path.abspath(p) == where)]
+
+
+def _package_alive(mod) -> bool:
+    """Whether a package's folder still exists (hosts delete an FMU's extracted folder)."""
+    paths = list(getattr(mod, "__path__", []))
+    return any(os.path.isfile(os.path.join(p, "__init__.py")) for p in paths)
+
+
 def _import_gearpair(resources: str | None):
-    """Import the bundled ``gearpair`` (the resources folder goes first on ``sys.path``)."""
-    if resources and os.path.isdir(resources) and resources not in sys.path:
-        sys.path.insert(0, resources)
-    loaded = sys.modules.get("gearpair")
-    if loaded is not None and resources and os.path.isdir(os.path.join(resources, "gearpair")):
-        # An earlier instance in this process imported the package from a folder that is
-        # gone (hosts delete the extracted FMU): its lazy imports would fail, so import our
-        # copy instead. Live instances keep the module objects they hold.
-        paths = list(getattr(loaded, "__path__", []))
-        if paths and not any(os.path.isfile(os.path.join(p, "__init__.py")) for p in paths):
-            for name in [n for n in sys.modules if n == "gearpair" or n.startswith("gearpair.")]:
+    """The gearpair package of this FMU: the copy in ``resources`` imported as `BUNDLE`.
+
+    Neither ``sys.path`` nor a ``gearpair`` of the host is touched, so a host that imports
+    gearpair later gets its own. Instances share the bundled package while its folder exists;
+    after a host deleted it, the next instance imports its own copy (live instances keep the
+    module objects they hold). Without a bundled copy (this module imported outside an FMU,
+    e.g. by the builder's documentation) the installed ``gearpair`` is used.
+    """
+    folder = os.path.join(resources, "gearpair") if resources else ""
+    init = os.path.join(folder, "__init__.py")
+    if not os.path.isfile(init):
+        gp = importlib.import_module("gearpair")
+    else:
+        gp = sys.modules.get(BUNDLE)
+        if gp is not None and not _package_alive(gp):
+            for name in [n for n in sys.modules if n == BUNDLE or n.startswith(BUNDLE + ".")]:
                 del sys.modules[name]
-    gp = importlib.import_module("gearpair")
+            gp = None
+        if gp is None:
+            spec = importlib.util.spec_from_file_location(
+                BUNDLE, init, submodule_search_locations=[folder])
+            gp = importlib.util.module_from_spec(spec)
+            sys.modules[BUNDLE] = gp
+            try:
+                spec.loader.exec_module(gp)
+            except BaseException:
+                del sys.modules[BUNDLE]
+                raise
     for sub in ("params", "effects", "engine"):
-        importlib.import_module(f"gearpair.{sub}")
+        importlib.import_module(f"{gp.__name__}.{sub}")
     return gp
 
 
@@ -249,18 +291,25 @@ class _StateUnpickler(pickle.Unpickler):
         ("numpy._core.multiarray", "scalar"), ("numpy.core.multiarray", "scalar"),
     }
 
+    def __init__(self, file, package: str) -> None:
+        super().__init__(file)
+        self._package = package  # name of the gearpair package the slave runs
+
     def find_class(self, module: str, name: str):
         if (module, name) in self._ALLOWED:
             return super().find_class(module, name)
-        if module in ("gearpair", "numpy.dtypes") or module.startswith("gearpair."):
+        top, dot, rest = module.partition(".")
+        if top in ("gearpair", BUNDLE):  # either import name: the package this slave runs
+            module = self._package + dot + rest
+        if module == "numpy.dtypes" or module.partition(".")[0] == self._package:
             obj = super().find_class(module, name)
             if isinstance(obj, type):  # classes only, never functions
                 return obj
         raise pickle.UnpicklingError(f"FMU state refers to {module}.{name}, which is not allowed")
 
 
-def _loads_state(data: bytes) -> dict:
-    state = _StateUnpickler(io.BytesIO(data)).load()
+def _loads_state(data: bytes, package: str = "gearpair") -> dict:
+    state = _StateUnpickler(io.BytesIO(data), package).load()
     if not isinstance(state, dict) or state.get("format") != STATE_FORMAT:
         raise ValueError("not a GearPair FMU state")
     return state
@@ -278,6 +327,7 @@ class GearPair(Fmi2Slave):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         _guard_pythonfmu_exit(self.resources)
+        _unlist_resources(self.resources)
         self._gp = _import_gearpair(self.resources)
         self._warn_foreign_package()
         self._spec = interface(self._gp)
@@ -321,8 +371,9 @@ class GearPair(Fmi2Slave):
         res = self.resources
         if res and os.path.isdir(res) and \
                 os.path.commonpath([os.path.abspath(res), where]) != os.path.abspath(res):
-            self.log(f"using the gearpair package already imported in this process from {where}, "
-                     f"not the copy in the FMU resources {res}", Fmi2Status.warning)
+            self.log(f"running the gearpair package at {where} (an earlier FMU instance's copy "
+                     f"or the installed one), not the copy in this FMU's resources {res}",
+                     Fmi2Status.warning)
 
     def _param_values(self) -> tuple:
         # checked after a master set a parameter (fixed ones must not change): one C call
@@ -549,7 +600,7 @@ class GearPair(Fmi2Slave):
         # cannot return an error status (it would be fatal), so it is logged and every later
         # step is refused until a good state is set.
         try:
-            s = _loads_state(bytes(state))
+            s = _loads_state(bytes(state), self._gp.__name__)
             values = s["values"]
             names = [v["name"] for v in self._spec]
             if set(values) != set(names):

@@ -157,4 +157,4 @@ def test_memory_peak_of_a_short_run():
     mem = bench.memory_peak(t_end=0.01, dt=1e-4)
     assert mem["samples"] == 101
     assert 0 < mem["baseline_rss_mb"] <= mem["peak_rss_mb"]
-    assert mem["met"]
+    assert mem["met"], mem

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import os
 import subprocess
 import sys
 import textwrap
@@ -20,6 +21,7 @@ from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi2 import (  # noqa: E402
     fmi2Discard,
     fmi2Error,
+    fmi2Warning,
 )
 from fmpy.validation import validate_fmu  # noqa: E402
 from fmu_slave import LoggingSlave  # noqa: E402
@@ -175,29 +177,53 @@ def test_simulate_fmu_gives_finite_outputs(fmu_path):
 
 def test_fmu_imports_its_bundled_package_and_exits_cleanly(fmu_path, tmp_path):
     """Two copies of the FMU in one Python host, the first one's folder deleted: the second
-    imports its own bundled package, both binaries get the exit guard against pythonfmu's
+    imports its own bundled package under the private name, the host's ``sys.path`` and
+    ``gearpair`` stay its own (importing gearpair afterwards works and finds the host's
+    package, not a deleted copy), both binaries get the exit guard against pythonfmu's
     use-after-free (`GearPair._guard_pythonfmu_exit`), and the interpreter's normal
     teardown ends with status 0."""
     code = textwrap.dedent(f"""
         import os, sys
         from fmpy import extract, read_model_description, simulate_fmu
         from fmpy.fmi2 import FMU2Slave
+        path0 = list(sys.path)
         simulate_fmu({str(fmu_path)!r}, stop_time=1e-3, output_interval=1e-3)
         md = read_model_description({str(fmu_path)!r})
         d = extract({str(fmu_path)!r})
         s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier="GearPair",
                       instanceName="x")
         s.instantiate()
-        print(sys.modules["gearpair"].__file__.startswith(str(d)), flush=True)
+        print(sys.modules["_gearpair_fmu"].__file__.startswith(str(d)),
+              "gearpair" in sys.modules, sys.path == path0, flush=True)
         guarded = sys.modules["GearPair"]._EXIT_GUARDED
         mine = os.path.join(os.path.abspath(d), "binaries", "linux64", "GearPair.so")
         print(len(guarded), mine in guarded, flush=True)
         s.terminate(); s.freeInstance()
+        import gearpair.scenes
+        print(gearpair.scenes.__file__.startswith({str(ROOT / "model")!r}), flush=True)
     """)
     r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
-                       text=True, timeout=120)
+                       text=True, timeout=300)
     assert r.returncode == 0, r.stderr
-    assert r.stdout.split() == ["True", "2", "True"]
+    assert r.stdout.split() == ["True", "False", "True", "2", "True", "True"]
+
+
+def test_a_copy_from_another_live_folder_says_which_package_it_runs(fmu_path, md, unzipdir,
+                                                                   tmp_path):
+    """Instances in one process share the bundled package while its folder exists; a copy
+    of the FMU extracted elsewhere then runs it, and its log names the folder it came from
+    (a silent swap could hide a version mismatch between two FMU files)."""
+    first = Instance(md, unzipdir)
+    other = Instance(md, str(extract(str(fmu_path), unzipdir=str(tmp_path / "other"))))
+    try:
+        other.fmu.setupExperiment(startTime=0.0)  # pythonfmu passes on what __init__ logged
+        loaded = os.path.dirname(sys.modules["_gearpair_fmu"].__file__)
+        assert not loaded.startswith(str(tmp_path))
+        said = [m for st, m in other.messages if st == fmi2Warning]
+        assert any(loaded in m and "resources" in m for m in said), other.messages
+    finally:
+        other.close()
+        first.close()
 
 
 def test_nan_input_is_refused_and_step_can_be_repeated(md, unzipdir):

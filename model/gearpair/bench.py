@@ -549,7 +549,7 @@ def engine_call_cost(n: int, step: float = 1e-3, repeats: int = 1) -> Timing:
 # Runs in a child process that never imports the working tree's gearpair. Reads a job (JSON
 # file argv[1]) and writes its answers (JSON file argv[2]).
 _FMU_WORKER = r"""
-import json, os, sys, time
+import importlib, json, os, sys, time
 job = json.load(open(sys.argv[1]))
 t_imp = time.perf_counter()
 import fmpy
@@ -616,12 +616,12 @@ def simulate1(r):
     return best
 
 def core_calls(c):
-    # `gearpair.bench._record_calls` of the FMU's bundled package (which the FMU instances
-    # imported): the loop an FMU master drives, without the FMU
-    from gearpair import make_engine
-    from gearpair.bench import _record_calls, regime_effects
-    took = _record_calls(make_engine(None, regime_effects(c["regime"]), "fast",
-                                     rtol=c["rtol"]), c["t_end"], c["step"])
+    # `gearpair.bench._record_calls` of the FMU's bundled package, which the FMU instances
+    # imported as `_gearpair_fmu`: the loop an FMU master drives, without the FMU
+    gp = sys.modules["_gearpair_fmu"]
+    bench = importlib.import_module("_gearpair_fmu.bench")
+    took = bench._record_calls(gp.make_engine(None, bench.regime_effects(c["regime"]), "fast",
+                                              rtol=c["rtol"]), c["t_end"], c["step"])
     return took.wall, took.cpu
 
 def init(start, step):
@@ -872,14 +872,29 @@ def fmu_startup(fmu: Path, progress: Progress = _quiet) -> dict:
 # -- memory ---------------------------------------------------------------------------------------
 _MEMORY_CHILD = r"""
 import json, resource, sys, time
+
+def peak_kb():
+    # VmHWM: the peak of this process's own memory. getrusage's ru_maxrss is not that on
+    # Linux: across fork + exec it keeps the parent's peak (a test session holding two
+    # compiled engines read as this child's).
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kb / 1024 if sys.platform == "darwin" else kb  # bytes there
+
 from gearpair.results import simulate
 from gearpair.fast import FastEngine
 FastEngine()  # load the compiled kernels before the baseline
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+base = peak_kb()
 t0 = time.perf_counter()
 traj = simulate(t_end=float(sys.argv[1]), dt=float(sys.argv[2]), engine="fast")
 wall = time.perf_counter() - t0
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+peak = peak_kb()
 data = sum(v.nbytes for v in traj.data.values())
 print(json.dumps({"baseline_kb": base, "peak_kb": peak, "wall_s": wall,
                   "samples": len(traj.time), "trajectory_bytes": data}))
@@ -888,7 +903,8 @@ print(json.dumps({"baseline_kb": base, "peak_kb": peak, "wall_s": wall,
 
 def memory_peak(t_end: float = 100.0, dt: float = 1e-4) -> dict:
     """Peak RSS of ``simulate(t_end, dt, engine="fast")`` (stick-slip default point) in a
-    child process (``getrusage`` of the child itself)."""
+    child process (its own high-water mark, ``VmHWM``; ``getrusage`` where there is no
+    ``/proc``)."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
         [str(Path(__file__).resolve().parents[1]), *filter(None, [env.get("PYTHONPATH")])])

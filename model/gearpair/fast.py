@@ -93,8 +93,11 @@ def _install_locator() -> bool:
 
     numba keys a cache directory by the absolute path of the source file, so a package
     extracted to a new temporary directory would recompile. This locator puts the functions
-    of this file under ``<cache dir>/gearpair_fast_<sha1 of the file>``; numba itself still
-    checks the file's content hash (its source stamp). Returns whether caching can be used.
+    of this file under ``<cache dir>/gearpair_fast_<sha1 of the file and module name>``;
+    numba itself still checks the file's content hash (its source stamp). The module name
+    is part of the key because a cached function names its module, which numba imports on
+    loading it: the FMU's bundled copy (``_gearpair_fmu.fast``) must not load entries of
+    ``gearpair.fast`` and so import a host's package. Returns whether caching can be used.
     """
     if CACHE_DIR is None:
         return False
@@ -105,7 +108,8 @@ def _install_locator() -> bool:
 
         def content_digest(path: str) -> str:
             with open(path, "rb") as fh:
-                return hashlib.sha1(fh.read() + numba.__version__.encode()).hexdigest()[:20]
+                return hashlib.sha1(fh.read() + numba.__version__.encode()
+                                    + __name__.encode()).hexdigest()[:20]
 
         digest = content_digest(this)
         where = os.path.join(CACHE_DIR, "gearpair_fast_" + digest)
@@ -122,6 +126,8 @@ def _install_locator() -> bool:
             def from_function(cls, py_func, py_file):
                 # A host that deletes an extracted FMU and loads the next copy from a new
                 # folder imports this file again under another path: match by content.
+                if getattr(py_func, "__module__", None) != __name__:
+                    return None  # another module, or this file under another import name
                 path = os.path.abspath(py_file)
                 if path not in same:
                     try:

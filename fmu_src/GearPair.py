@@ -157,9 +157,9 @@ def _unlist_resources(resources: str | None) -> None:
     there, so in a Python host a later ``import gearpair`` would find the FMU's copy (and
     fail once the host deleted the folder) instead of the host's own. This module is
     imported by then and the bundled package needs no ``sys.path`` entry (`_import_gearpair`).
-    Only in an extracted FMU (a ``binaries`` folder beside it; fmpy extracts no more than
-    the two): pythonfmu's builder instantiates the slave with the script's own folder, which
-    it removes itself.
+    Only in an extracted FMU, recognised by a ``binaries`` folder beside it (fmpy extracts
+    just ``binaries`` and ``resources``): pythonfmu's builder instantiates the slave with the
+    script's own folder, which it removes itself.
     """
     if resources and os.path.isdir(os.path.join(os.path.dirname(os.path.abspath(resources)),
                                                 "binaries")):

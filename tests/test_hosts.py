@@ -38,11 +38,6 @@ sys.path.insert(0, str(HOSTS))
 
 from hosts_common import INT_OUTPUTS, OUTPUTS, run_fmpy, value_references  # noqa: E402
 
-# Imported before any test loads an FMU in this process: an FMU imports its bundled copy of
-# gearpair when none is loaded yet, and its folder is gone once the FMU is freed.
-from gearpair import Effects, GearParams  # noqa: E402
-from gearpair.reference import ReferenceEngine  # noqa: E402
-
 pytestmark = pytest.mark.fmu
 
 RPM = 2.0 * math.pi / 60.0
@@ -161,7 +156,8 @@ def test_c_host_variable_steps(fmu_path, tmp_path):
     rows = np.array([[float(x) for x in line.split(",")] for line in proc.stdout.split()])
     assert rows.shape == (n + 1, 1 + len(OUTPUTS) + len(INT_OUTPUTS))
     host = {o: rows[1:, 1 + j] for j, o in enumerate(OUTPUTS + INT_OUTPUTS)}
-
+    from gearpair import Effects, GearParams
+    from gearpair.reference import ReferenceEngine
 
     eng = ReferenceEngine(GearParams(), Effects(), rtol=RTOL)
     eng.reset(0.0, 2500.0, 100 * RPM, static=True)

@@ -443,10 +443,9 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, di
         pw[W_STK, i] = 0.0
         pw[W_LAMEX, i] = 0.0
         if fric == FR_NOMINAL:
-            # the direction of the segment (s_idx lies inside it): at a pitch-point boundary
-            # nom is a rounding error from zero and its sign at s may be the old one
-            xs = mp[P_S1A] + pw[W_XI, i] + (s_idx - s)
-            f = mu * abs(normal) * _sgn(speed * (mp[P_RATIO] * (mp[P_S1S2] - xs) - xs), 0.0)
+            # the direction of the segment: nom moved to s_idx, which lies inside it (at a
+            # pitch-point boundary nom is a rounding error from zero, its sign maybe the old)
+            f = mu * abs(normal) * _sgn(nom - speed * (1.0 + mp[P_RATIO]) * (s_idx - s), 0.0)
         elif fric == FR_REG:
             f = mu * abs(normal) * math.tanh(v / mp[P_VEPS])
         elif fric == FR_STICK:

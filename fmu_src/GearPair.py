@@ -517,12 +517,11 @@ class GearPair(Fmi2Slave):
         torque, speed = float(self.torque), float(self.speed)
         snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
         saved = snap() if snap is not None else eng.get_state()
-        if self._stepped:
-            tol = 1e-9 * max(1.0, abs(t), h)
-            if abs(t - eng.time) > tol:
-                return self._error(
-                    f"step refused: currentCommunicationPoint = {t!r} s does not match the "
-                    f"FMU's time {eng.time!r} s (restore an FMU state to go back)")
+        now = eng.time if self._stepped else self._start_time  # the first step: startTime
+        if abs(t - now) > 1e-9 * max(1.0, abs(t), h):
+            return self._error(
+                f"step refused: currentCommunicationPoint = {t!r} s does not match the "
+                f"FMU's time {now!r} s (restore an FMU state to go back)")
         try:
             if not self._stepped:
                 eng.reset(t0=t, torque=torque, speed=speed, static=True)

@@ -325,15 +325,16 @@ communication steps are therefore accurate; the step figures
 (<code>stick_fraction</code>, <code>separation_fraction</code>, <code>mesh_force_max</code>,
 <code>n_events</code>) summarize what happened inside the step.</li>
 <li>At initialization the deflections start at static equilibrium under the input torque
-(no start-up transient from zero). The first <code>fmi2DoStep</code> starts the motion from
-its communication point with the inputs then set.</li>
+(no start-up transient from zero). The first <code>fmi2DoStep</code> starts the motion at
+<code>startTime</code> (of <code>fmi2SetupExperiment</code>) with the inputs then set.</li>
 <li>Variable communication step sizes, <code>fmi2GetFMUstate</code>/<code>fmi2SetFMUstate</code>
 and state serialization are supported; a serialized state can be restored into a fresh
 instance of this FMU.</li>
 <li>The FMU runs Python code (pythonfmu). It needs Python 3 with numpy, scipy and numba
 (<code>resources/requirements.txt</code>; <code>pythonfmu deploy -f GearPair.fmu</code>
 installs them). Python hosts (fmpy, libcosimpy, ecospy) use their own interpreter; other
-hosts on Linux need <code>LD_PRELOAD</code> set to the libpython of that interpreter.</li>
+hosts on Linux need <code>LD_PRELOAD</code> set to the libpython of that interpreter and
+<code>PYTHONPATH</code> to its packages. Binaries: Linux x86_64 only.</li>
 </ul>
 
 <h2>Inputs</h2>
@@ -374,21 +375,31 @@ r<sub>b</sub> = m z cos(alpha) / 2 (Eq. (5)).</p>
 
 <h2>Limits and error handling</h2>
 <ul>
-<li>Inputs must be finite with |torque| &le; 1e6 N.m and |speed| &le; 2e4 rad/s. A step with
-an invalid input is refused (fmi2Discard) with a log message naming the input; the state is
-unchanged, so the master may correct the input and repeat the step.</li>
-<li>Parameters are checked against the ranges above when the model is built (at
-initialization and again at the first step); a value out of range is logged naming the
-parameter, and steps are refused (fmi2Discard). Parameters are fixed: changing one after
-initialization makes steps refuse until the FMU is reset or re-instantiated.</li>
-<li>If the integrator fails inside a step, the step is refused (fmi2Discard) and the state
-is that of the step start (lastSuccessfulTime).</li>
-<li>Steps must start at the FMU's current time (or restore an FMU state first) and have a
-positive size.</li>
-<li>Messages (which input or parameter was refused, and why) reach the master's logger only
-with debug logging on (<code>loggingOn</code> in <code>fmi2Instantiate</code>, fmpy's
-<code>debug_logging=True</code> or <code>--debug-logging</code>): pythonfmu forwards log
-messages only then.</li>
+<li>The FMU follows the FMI 2.0 co-simulation state machine: a call not allowed in the
+current mode (e.g. <code>fmi2DoStep</code> before <code>fmi2ExitInitializationMode</code>)
+returns fmi2Error with a log message and changes nothing.</li>
+<li>Inputs and parameters are checked when they are set: a NaN, infinite or out-of-range
+value (ranges above), an integer code outside its choices, or a parameter set after
+initialization (all parameters are fixed) makes the <code>fmi2Set*</code> call return
+fmi2Error; the value is not taken and the variable keeps its old value.</li>
+<li>Combinations of parameters the model cannot run (e.g. <code>dof</code> = 1 with
+<code>friction_law</code> = 3 needs <code>sliding</code> = 1; <code>backlash</code> &gt; 0
+needs <code>separation</code>; a contact ratio below 1) make
+<code>fmi2ExitInitializationMode</code> return fmi2Error; the instance stays in
+initialization mode, so the master may correct a parameter and call it again (or reset).</li>
+<li>Steps must start at the FMU's current time (the first one at <code>startTime</code>; or
+restore an FMU state first) and have a positive, finite size; otherwise fmi2Error with the
+state unchanged.</li>
+<li>If the integrator fails inside a step, the step returns fmi2Discard and the state is
+that of the step start (lastSuccessfulTime); the step may be retried.</li>
+<li>Every fmi2Error of this FMU comes from a refused call that changed nothing, so the
+master may go on after correcting the call (the standard only promises
+<code>fmi2SetFMUstate</code>, <code>fmi2Reset</code> or <code>fmi2FreeInstance</code>).</li>
+<li>Warnings and errors always reach the master's logger, whatever <code>loggingOn</code>
+says; information messages follow <code>loggingOn</code> and
+<code>fmi2SetDebugLogging</code>.</li>
+<li>A serialized FMU state carries a checksum: a truncated or altered one is refused by
+<code>fmi2DeSerializeFMUstate</code> with fmi2Error.</li>
 <li>The integrator tolerance is the parameter <code>rtol</code>; the tolerance a master
 passes to <code>fmi2SetupExperiment</code> is not used. With <code>friction_law</code> off
 and <code>stiffness_model</code> constant or rectangular the equations have constant

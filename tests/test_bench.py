@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -16,7 +17,9 @@ import pytest
 from gearpair import bench, cli
 
 HAS_FMU = all(importlib.util.find_spec(m) is not None for m in ("pythonfmu", "fmpy"))
-ENGINE_METHODS = ("fast", "fast (step 0.001)", "fast dp5", *bench.SCIPY_METHODS)
+PLAIN_METHODS = tuple(bench.PLAIN_PREFIX + m for m, _ in bench.QUICK.plain_rtols)
+ENGINE_METHODS = ("fast", "fast (step 0.001)", "fast dp5", *bench.SCIPY_METHODS,
+                  *PLAIN_METHODS)
 
 
 @pytest.fixture(scope="module")
@@ -54,6 +57,30 @@ def test_every_method_and_regime_has_a_row(quick):
     for e in quick["equal_accuracy"]:
         assert set(e["best"]) >= set(ENGINE_METHODS)
         assert set(e["best_cpu"]) == set(e["best"])
+        # both leads of the fast core: over scipy on the reference engine and over plain scipy
+        assert e["fastest_scipy"] in bench.SCIPY_METHODS, e
+        assert e["fastest_plain"] in PLAIN_METHODS, e
+        for key in ("ratio", "ratio_plain", "ratio_cpu", "ratio_plain_cpu"):
+            assert e[key] > 0, (key, e)
+    assert quick["plain_scipy"]["note"] is None
+
+
+def test_plain_scipy_is_cross_checked_against_the_reference(quick):
+    checks = {c["engine"]: c for c in quick["reference"]["cross_check"]
+              if c["regime"] == "stick_slip"}
+    assert set(checks) == {"reference DOP853", "plain DOP853"}
+    plain = checks["plain DOP853"]
+    assert plain["horizon_s"] == bench.QUICK.window("stick_slip")
+    assert plain["diff_dte"] < 1e-9 and plain["diff_force"] < 1e-9, plain
+
+
+def test_plain_rows_skipped_with_a_note_without_the_repository(monkeypatch, tmp_path):
+    from gearpair.bench import plain
+
+    monkeypatch.setattr(plain, "PLAIN_SCRIPT", tmp_path / "plain_scipy.py")
+    monkeypatch.delitem(sys.modules, plain._MODULE, raising=False)
+    rows, checks, note = plain.plain_rows(bench.QUICK, {})
+    assert rows == [] and checks == [] and "benchmarks/" in note
 
 
 @pytest.mark.parametrize("method", ["fast", "fast dp5"])
@@ -115,7 +142,7 @@ def test_cost_table_covers_scenes_and_ladder(quick):
 
 def test_report_json_and_targets(quick):
     text = bench.report(quick)
-    for word in (*bench.REGIMES, "Equal accuracy", "Effect ladder", "Targets",
+    for word in (*bench.REGIMES, "Equal accuracy", "Effect ladder", "Targets", "plain scipy",
                  quick["machine"]["cpu"]):
         assert word in text
     back = json.loads(json.dumps(bench.jsonable(quick), allow_nan=False))
@@ -124,6 +151,7 @@ def test_report_json_and_targets(quick):
     assert bench.jsonable(odd) == {"a": [None, 2, [1.5]]}
     kinds = " ".join(t["target"] for t in quick["targets"])
     assert "scipy" in kinds and "stick-slip" in kinds and "ladder" in kinds
+    assert "plain scipy" in kinds and "reference engine" in kinds
 
 
 def test_plot(quick, tmp_path):

@@ -42,6 +42,7 @@ from .effect_cost import LADDER_RUNS, cost_table
 from .fmu import build_fmus, fmu_measurements, fmu_start, fmu_startup
 from .measure import run, warm_up
 from .memory import memory_peak
+from .plain import load_plain, plain_rows
 from .plot import plot
 from .report import jsonable, report, table
 from .runs import (
@@ -63,6 +64,8 @@ from .settings import (
     FULL,
     LADDER,
     NOOP_SCRIPT,
+    PLAIN_PREFIX,
+    PLAIN_SCRIPT,
     PRESETS,
     QUICK,
     REGIMES,
@@ -89,13 +92,14 @@ from .work_precision import (
 )
 
 __all__ = [
-    "DEFAULT", "FRICTION_OF", "FULL", "LADDER", "LADDER_RUNS", "NEVER", "NOOP_SCRIPT", "PRESETS",
-    "QUICK", "REGIMES", "ROOT", "SCENES_DIR", "SCIPY_MAX_EVENTS", "SCIPY_METHODS",
-    "TARGET_ERROR", "TARGET_FMU_FACTOR", "TARGET_LADDER", "TARGET_MEMORY_MB", "TARGET_SPEEDUP",
-    "TARGET_STICK_SLIP", "BudgetExceeded", "Settings", "Timing", "_record", "_record_calls",
-    "accurate_rtol", "add_parser", "build_fmus", "clock", "core_step_costs", "cost_table",
-    "engine_call_cost", "engine_rows", "engine_run", "equal_accuracy", "fmu_measurements",
-    "fmu_start", "fmu_startup", "jsonable", "machine_info", "main", "memory_peak", "plot",
-    "references", "regime_effects", "relative_error", "report", "run", "settings_from", "table",
-    "targets", "time_limit", "warm_up",
+    "DEFAULT", "FRICTION_OF", "FULL", "LADDER", "LADDER_RUNS", "NEVER", "NOOP_SCRIPT",
+    "PLAIN_PREFIX", "PLAIN_SCRIPT", "PRESETS", "QUICK", "REGIMES", "ROOT", "SCENES_DIR",
+    "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FMU_FACTOR", "TARGET_LADDER",
+    "TARGET_MEMORY_MB", "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls",
+    "accurate_rtol", "add_parser", "BudgetExceeded", "build_fmus", "clock", "core_step_costs",
+    "cost_table", "engine_call_cost", "engine_rows", "engine_run", "equal_accuracy",
+    "fmu_measurements", "fmu_start", "fmu_startup", "jsonable", "load_plain", "machine_info",
+    "main", "memory_peak", "plain_rows", "plot", "references", "regime_effects",
+    "relative_error", "report", "run", "Settings", "settings_from", "table", "targets",
+    "time_limit", "Timing", "warm_up",
 ]

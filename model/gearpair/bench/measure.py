@@ -12,6 +12,7 @@ from pathlib import Path
 from .effect_cost import cost_table
 from .fmu import build_fmus, fmu_measurements, fmu_startup
 from .memory import memory_peak
+from .plain import plain_rows
 from .runs import _record, machine_info, regime_effects
 from .settings import DEFAULT, LADDER, REGIMES, Progress, Settings, _quiet
 from .targets import targets
@@ -47,6 +48,10 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
         "engine": "fast", "rtol": s.ref_rtol, "horizon_s": float(refs[REGIMES[0]]["time"][-1]),
         "dt": s.dt, "cross_check": checks}
     rows = engine_rows(s, refs, progress)
+    plain, plain_checks, note = plain_rows(s, refs, progress)
+    rows.extend(plain)
+    checks.extend(plain_checks)
+    result["plain_scipy"] = {"script": "benchmarks/plain_scipy.py", "note": note}
     core = core_step_costs(s, _step_rtols(rows, s.fmu_rtols))
     progress("fast core at 1e-3 s steps: done")
     result.update(work_precision=rows, core_steps=core, fmu=None, startup=None)

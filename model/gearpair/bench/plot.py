@@ -18,7 +18,7 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
     fig = Figure(figsize=(13.0, 7.5), layout="constrained")
     ax = fig.subplots(2, len(REGIMES), sharex=True, sharey="row")
     markers = {"fast": "o", "fast dp5": "x", "RK45": "s", "DOP853": "D", "Radau": "^",
-               "LSODA": "v", "FMU": "*"}  # by the method, else its first word
+               "LSODA": "v", "FMU": "*", "plain": "P"}  # by the method, else its first word
     rows = result["work_precision"]
     for j, regime in enumerate(REGIMES):
         mine = [r for r in rows if r["regime"] == regime]

@@ -65,7 +65,8 @@ def _header(result: dict) -> list[str]:
         out.append(table(
             ["cross-check", "simulated s", "DTE diff", "force diff", "DOP853 wall s/s",
              "fast wall s/s"],
-            [[f"{c['regime']}: DOP853 vs fast, rtol {c['rtol']:g}", _fmt(c["horizon_s"]),
+            [[f"{c['regime']}: {c.get('engine', 'DOP853')} vs fast, rtol {c['rtol']:g}",
+              _fmt(c["horizon_s"]),
               _fmt(c["diff_dte"], ".1e"), _fmt(c["diff_force"], ".1e"),
               _fmt(c["dop853_wall_per_sim_s"], ".0f"), _fmt(c["fast_wall_per_sim_s"])]
              for c in ref["cross_check"]]))
@@ -94,22 +95,32 @@ def _work_precision(result: dict) -> list[str]:
 
 
 def _equal_accuracy(result: dict) -> list[str]:
-    """Cheapest setting per method at the target error, wall and CPU."""
+    """Cheapest setting per method at the target error, wall and CPU, and the fast core's
+    lead over scipy's solvers on the reference engine and over plain scipy."""
     out: list[str] = []
     methods = list(dict.fromkeys(r["method"] for r in result["work_precision"]))
+    acc = result["equal_accuracy"]
     for suffix, what in (("", "wall"), ("_cpu", "CPU")):
         key = "wall_per_sim_s" if not suffix else "cpu_per_sim_s"
         out.append(f"Equal accuracy, {what} time: cheapest setting with DTE error <= "
                    f"{TARGET_ERROR:g}, s/s:")
-        out.append(table(
-            ["regime", *methods, "scipy best / fast"],
-            [[e["regime"], *[("not reached" if e["best" + suffix].get(mm) is None else
-                              f"{e['best' + suffix][mm][key]:.3g} "
-                              f"({e['best' + suffix][mm]['setting']})") for mm in methods],
-              "-" if e["ratio" + suffix] is None else
-              f"{e['ratio' + suffix]:.0f} ({e['fastest_scipy' + suffix]})"]
-             for e in result["equal_accuracy"]]))
+
+        def cell(e, mm, key=key, suffix=suffix):
+            b = e["best" + suffix].get(mm)
+            return "not reached" if b is None else f"{b[key]:.3g} ({b['setting']})"
+
+        def ratio(e, kind, suffix=suffix):
+            x, m = e["ratio" + kind + suffix], e["fastest" + (kind or "_scipy") + suffix]
+            return "-" if x is None else f"{x:.0f} x ({m})"
+
+        rows = [[mm, *[cell(e, mm) for e in acc]] for mm in methods]
+        rows.append(["scipy on the reference engine / fast", *[ratio(e, "") for e in acc]])
+        rows.append(["plain scipy (benchmarks/) / fast", *[ratio(e, "_plain") for e in acc]])
+        out.append(table(["method", *[e["regime"] for e in acc]], rows))
         out.append("")
+    note = (result.get("plain_scipy") or {}).get("note")
+    if note:
+        out += [note, ""]
     return out
 
 

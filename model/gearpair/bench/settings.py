@@ -9,6 +9,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[3]  # repository root (build_fmu.py, examples/)
 NOOP_SCRIPT = ROOT / "examples" / "bench_noop" / "GearPairNoop.py"
 SCENES_DIR = ROOT / "examples" / "scenes"
+# the plain scipy implementation a user would write: in the repository, not in the package
+PLAIN_SCRIPT = ROOT / "benchmarks" / "plain_scipy.py"
+PLAIN_PREFIX = "plain "  # method names of its rows: "plain DOP853", ...
 
 REGIMES = ("no_friction", "sliding", "stick_slip")
 FRICTION_OF = {"no_friction": "off", "sliding": "nominal", "stick_slip": "stick_slip"}
@@ -50,12 +53,15 @@ class Settings:
         ``fast``) and coarser ones (rows ``fast (step h)``, sampled every h)
     fast_alt_methods : other Runge-Kutta pairs of the fast core than its default DOP853
         (rows ``fast dp5``, on the common grid), to show what the choice of method buys
-    scipy_rtols : per scipy method, its tolerances
+    scipy_rtols : per scipy method, its tolerances (run as the reference engine)
+    plain_rtols : per scipy method, the tolerances of the plain scipy implementation
+        (benchmarks/plain_scipy.py, rows ``plain <method>``, over ``horizon``)
     run_budget : wall-time limit (s) of one engine run of the work-precision table; a run
         that exceeds it is reported as failed
     ref_rtol : tolerance of the reference (fast core)
     check_horizon : simulated time of the cross-check of the reference against scipy DOP853
-        at ``ref_rtol``; 0 skips it
+        at ``ref_rtol`` (the reference engine's); 0 skips it. The plain scipy implementation
+        is cross-checked at ``ref_rtol`` over each regime's window
     check_regimes : regimes cross-checked
     fmu_steps, fmu_rtols : communication steps and ``rtol`` parameter of the FMU rows
     step_horizon : simulated time of the costs at a 1e-3 s step (core, FMU, floor)
@@ -82,6 +88,9 @@ class Settings:
     scipy_rtols: tuple[tuple[str, tuple[float, ...]], ...] = (
         ("RK45", (1e-5, 1e-6, 1e-7)), ("DOP853", (1e-5, 1e-6, 1e-7)),
         ("Radau", (1e-4, 1e-5)), ("LSODA", (1e-5, 1e-6)))
+    plain_rtols: tuple[tuple[str, tuple[float, ...]], ...] = (
+        ("RK45", (1e-5, 1e-6, 1e-7, 1e-8)), ("DOP853", (1e-5, 1e-6, 1e-7, 1e-8, 1e-9)),
+        ("Radau", (1e-5, 1e-6)), ("LSODA", (1e-5, 1e-6, 1e-7, 1e-8)))
     ref_rtol: float = 1e-12
     check_horizon: float = 0.002
     check_regimes: tuple[str, ...] = REGIMES
@@ -108,6 +117,7 @@ QUICK = Settings(
     fast_rtols=(1e-6, 1e-9),
     scipy_rtols=(("RK45", (1e-5, 1e-6)), ("DOP853", (1e-5, 1e-6)), ("Radau", (1e-5,)),
                  ("LSODA", (1e-5,))),
+    plain_rtols=(("RK45", (1e-6,)), ("DOP853", (1e-6, 1e-9))),
     check_horizon=0.0005, check_regimes=("stick_slip",), step_horizon=0.02, calls=150,
     repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0)
 FULL = Settings(

@@ -17,6 +17,7 @@ from .runs import (
     time_limit,
 )
 from .settings import (
+    PLAIN_PREFIX,
     REGIMES,
     SCIPY_MAX_EVENTS,
     SCIPY_METHODS,
@@ -48,7 +49,8 @@ def references(s: Settings, progress: Progress = _quiet) -> tuple[dict, list[dic
             wall = took.wall
             ref = refs[regime]
             checks.append({
-                "regime": regime, "horizon_s": s.check_horizon, "rtol": s.ref_rtol,
+                "regime": regime, "engine": "reference DOP853", "horizon_s": s.check_horizon,
+                "rtol": s.ref_rtol,
                 "dop853_wall_per_sim_s": wall / s.check_horizon,
                 "fast_wall_per_sim_s": ref["wall_s"] / t_ref,
                 "diff_dte": relative_error(sig["time"], sig["dte"], ref, "dte"),
@@ -130,8 +132,11 @@ def _engine_row(regime: str, method: str, rtol: float, horizon: float, s: Settin
 
 def equal_accuracy(rows: list[dict], target: float = TARGET_ERROR) -> list[dict]:
     """Per regime: each method's cheapest row (by wall time) with DTE error <= ``target``
-    (None: not reached) and the ratio fastest scipy method / fast core; ``ratio_cpu`` is the
-    same comparison in CPU time (each method's cheapest row by CPU time)."""
+    (None: not reached) and the ratios to the fast core of the fastest scipy method run as
+    the reference engine (``ratio``, ``fastest_scipy``) and of the fastest plain scipy
+    implementation (``ratio_plain``, ``fastest_plain``: benchmarks/plain_scipy.py, what a user
+    would write); the keys ending in ``_cpu`` are the same comparison in CPU time (each
+    method's cheapest row by CPU time)."""
     out = []
     for regime in REGIMES:
         mine = [r for r in rows if r["regime"] == regime and r["err_dte"] <= target]
@@ -145,15 +150,22 @@ def equal_accuracy(rows: list[dict], target: float = TARGET_ERROR) -> list[dict]
                 best[method] = None if b is None else {
                     k: b[k] for k in ("setting", "rtol", "step", "wall_per_sim_s",
                                       "cpu_per_sim_s", "err_dte", "err_force")}
-            scipy = {m: b for m, b in best.items() if m in SCIPY_METHODS and b is not None}
-            fast = best.get("fast")
-            m = min(scipy, key=lambda k, c=clock_key: scipy[k][c]) if scipy else None
             entry["best" + suffix] = best
-            entry["fastest_scipy" + suffix] = m
-            entry["ratio" + suffix] = None if m is None or fast is None \
-                else scipy[m][clock_key] / fast[clock_key]
+            for name, is_kind in (("", lambda m: m in SCIPY_METHODS),
+                                  ("_plain", lambda m: m.startswith(PLAIN_PREFIX))):
+                m, ratio = _fastest(best, is_kind, clock_key)
+                entry["fastest" + (name or "_scipy") + suffix] = m
+                entry["ratio" + name + suffix] = ratio
         out.append(entry)
     return out
+
+
+def _fastest(best: dict, is_kind, clock_key: str) -> tuple[str | None, float | None]:
+    """The cheapest method of a kind among ``best`` and its cost over the fast core's."""
+    kind = {m: b for m, b in best.items() if is_kind(m) and b is not None}
+    fast = best.get("fast")
+    m = min(kind, key=lambda k: kind[k][clock_key]) if kind else None
+    return m, None if m is None or fast is None else kind[m][clock_key] / fast[clock_key]
 
 
 def core_step_costs(s: Settings, rtols: dict[str, list[float]], step: float = 1e-3) -> list[dict]:

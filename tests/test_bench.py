@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import shutil
 import sys
 from dataclasses import replace
 
@@ -125,6 +126,42 @@ def test_step_costs_fmu_and_calls(quick):
     assert calls["error"] is None
     for key in ("gearpair", "noop", "engine"):
         assert calls[key + "_s"] > 0 and calls[key + "_cpu_s"] > 0
+
+
+def test_c_host_rows(quick):
+    if not HAS_FMU:
+        pytest.skip("pythonfmu/fmpy missing")
+    ch = quick["c_host"]
+    if shutil.which("gcc") is None:
+        assert "gcc" in ch["note"] and not ch["steps"]
+        return
+    assert ch["note"] is None, ch["note"]
+    assert ch["inputs"] == ["torque", "speed"] and len(ch["outputs"]) == 4
+    assert [r["step"] for r in ch["steps"]] == [1e-4, 1e-3]
+    for r in ch["steps"]:
+        assert r["error"] is None, r
+        for clk in ("", "_cpu"):
+            for key in ("c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine"):
+                assert r[f"{key}{clk}_us"] > 0, (key, r)
+            assert r[f"c_slave_own{clk}_us"] == pytest.approx(
+                r[f"c_gearpair{clk}_us"] - r[f"c_noop{clk}_us"] - r[f"engine{clk}_us"])
+        assert r["c_per_sim_s"] == pytest.approx(r["c_gearpair_us"] * 1e-6 / r["step"])
+        # the no-op slave exits cleanly; GearPair's exit status is reported, not required
+        assert r["exit_status"]["noop"] == 0 and "gearpair" in r["exit_status"]
+    text = bench.report(quick)
+    assert "C host" in text and "slave's own" in text
+    assert any("slave's own work" in t["target"] for t in quick["targets"])
+
+
+def test_c_host_skipped_with_a_note(monkeypatch, tmp_path):
+    from gearpair.bench import chost
+
+    monkeypatch.setattr(chost, "HOST_SOURCE", tmp_path / "fmi2_bench_host.c")
+    host, note = chost.build_host(tmp_path)
+    assert host is None and "benchmarks/" in note
+    monkeypatch.setattr(chost.shutil, "which", lambda name: None)
+    assert "gcc" in chost.build_host(tmp_path)[1]
+    assert chost.exit_note(0) == "0" and chost.exit_note(-11) == "SIGSEGV at exit"
 
 
 def test_cost_table_covers_scenes_and_ladder(quick):

@@ -37,6 +37,7 @@ counted (it is reported apart).
 
 from __future__ import annotations
 
+from .chost import build_host, host_measurements, run_host
 from .cli import add_parser, main, settings_from
 from .effect_cost import LADDER_RUNS, cost_table
 from .fmu import build_fmus, fmu_measurements, fmu_start, fmu_startup
@@ -62,6 +63,7 @@ from .settings import (
     DEFAULT,
     FRICTION_OF,
     FULL,
+    HOST_SOURCE,
     LADDER,
     NOOP_SCRIPT,
     PLAIN_PREFIX,
@@ -74,9 +76,11 @@ from .settings import (
     SCIPY_MAX_EVENTS,
     SCIPY_METHODS,
     TARGET_ERROR,
+    TARGET_FIRST_START_S,
     TARGET_FMU_FACTOR,
     TARGET_LADDER,
     TARGET_MEMORY_MB,
+    TARGET_SLAVE_OWN_US,
     TARGET_SPEEDUP,
     TARGET_STICK_SLIP,
     Settings,
@@ -92,14 +96,15 @@ from .work_precision import (
 )
 
 __all__ = [
-    "DEFAULT", "FRICTION_OF", "FULL", "LADDER", "LADDER_RUNS", "NEVER", "NOOP_SCRIPT",
-    "PLAIN_PREFIX", "PLAIN_SCRIPT", "PRESETS", "QUICK", "REGIMES", "ROOT", "SCENES_DIR",
-    "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FMU_FACTOR", "TARGET_LADDER",
-    "TARGET_MEMORY_MB", "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls",
-    "accurate_rtol", "add_parser", "BudgetExceeded", "build_fmus", "clock", "core_step_costs",
+    "DEFAULT", "FRICTION_OF", "FULL", "HOST_SOURCE", "LADDER", "LADDER_RUNS", "NEVER",
+    "NOOP_SCRIPT", "PLAIN_PREFIX", "PLAIN_SCRIPT", "PRESETS", "QUICK", "REGIMES", "ROOT",
+    "SCENES_DIR", "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FIRST_START_S",
+    "TARGET_FMU_FACTOR", "TARGET_LADDER", "TARGET_MEMORY_MB", "TARGET_SLAVE_OWN_US",
+    "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls", "accurate_rtol",
+    "add_parser", "BudgetExceeded", "build_fmus", "build_host", "clock", "core_step_costs",
     "cost_table", "engine_call_cost", "engine_rows", "engine_run", "equal_accuracy",
-    "fmu_measurements", "fmu_start", "fmu_startup", "jsonable", "load_plain", "machine_info",
-    "main", "memory_peak", "plain_rows", "plot", "references", "regime_effects",
-    "relative_error", "report", "run", "Settings", "settings_from", "table", "targets",
-    "time_limit", "Timing", "warm_up",
+    "fmu_measurements", "fmu_start", "fmu_startup", "host_measurements", "jsonable",
+    "load_plain", "machine_info", "main", "memory_peak", "plain_rows", "plot", "references",
+    "regime_effects", "relative_error", "report", "run", "run_host", "Settings",
+    "settings_from", "table", "targets", "time_limit", "Timing", "warm_up",
 ]

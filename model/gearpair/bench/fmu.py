@@ -123,7 +123,8 @@ def calls1(c):
             fmu.setReal(vin, u)
             fmu.doStep(i * h, h)
             fmu.getReal(reals)
-            fmu.getInteger(ints)
+            if ints:
+                fmu.getInteger(ints)
         per = [(time.perf_counter() - t0) / n, (time.process_time() - c0) / n]
         fmu.terminate()
         fmu.freeInstance()
@@ -151,6 +152,8 @@ if job.get("startup"):
 out["runs"] = {key: simulate(r) for key, r in job.get("runs", {}).items()}
 if job.get("calls"):
     out["call_s"] = calls(job["calls"])
+if job.get("loops"):
+    out["loops"] = {key: calls(c) for key, c in job["loops"].items()}
 with open(sys.argv[2], "w") as fh:
     json.dump(out, fh)
 sys.stdout.flush()
@@ -351,12 +354,14 @@ def _call_costs(s: Settings, got: dict, ngot: dict) -> dict:
 
 
 def fmu_startup(fmu: Path, progress: Progress = _quiet) -> dict:
-    """Instantiate + initialize + first 1e-3 s step in a fresh process with an empty numba
-    cache (the kernels compile) and again with the cache it left (they load)."""
+    """Instantiate + initialize + first 1e-3 s step in a fresh process with empty caches
+    (``NUMBA_CACHE_DIR`` and ``XDG_CACHE_HOME`` new folders: the kernels compile, unless the
+    FMU ships them) and again with the caches it left (they load)."""
     start = fmu_start(fmu, "stick_slip", 1e-8)
     job = {"fmu": str(fmu), "startup": {"start": start, "step": 1e-3}}
     with tempfile.TemporaryDirectory(prefix="gearpair_bench_numba_") as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(Path(cache) / "numba"),
+                   XDG_CACHE_HOME=str(Path(cache) / "xdg"))
         progress("FMU start-up with an empty numba cache (compiles the kernels)")
         cold = _worker(job, env)["startup"]
         progress("FMU start-up with the cache just filled")

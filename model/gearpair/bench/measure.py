@@ -9,6 +9,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+from .chost import host_measurements
 from .effect_cost import cost_table
 from .fmu import build_fmus, fmu_measurements, fmu_startup
 from .memory import memory_peak
@@ -54,7 +55,8 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
     result["plain_scipy"] = {"script": "benchmarks/plain_scipy.py", "note": note}
     core = core_step_costs(s, _step_rtols(rows, s.fmu_rtols))
     progress("fast core at 1e-3 s steps: done")
-    result.update(work_precision=rows, core_steps=core, fmu=None, startup=None)
+    result.update(work_precision=rows, core_steps=core, fmu=None, startup=None,
+                  c_host=None)
     if s.fmu:
         with tempfile.TemporaryDirectory(prefix="gearpair_bench_fmu_") as tmp:
             try:  # a failing FMU section is reported, the other sections still run
@@ -62,6 +64,8 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
                 fm = fmu_measurements(s, refs, fmu, noop, progress)
                 result["fmu"] = {"steps": fm["steps"], "calls": fm["calls"]}
                 rows.extend(fm["rows"])
+                result["c_host"] = host_measurements(s, fmu, noop, Path(tmp) / "host",
+                                                     progress)
                 if s.startup:
                     result["startup"] = fmu_startup(fmu, progress)
             except (RuntimeError, OSError, subprocess.SubprocessError) as exc:

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from .chost import exit_note
 from .settings import FRICTION_OF, REGIMES, TARGET_ERROR, TARGET_FMU_FACTOR
 
 
@@ -36,8 +37,8 @@ def report(result: dict) -> str:
     """The benchmark's tables as plain text ("s/s": seconds per simulated second; "wall" and
     "CPU" are wall time and CPU time of the measuring process)."""
     out: list[str] = []
-    for section in (_header, _work_precision, _equal_accuracy, _core_steps, _fmu, _cost,
-                    _memory_and_targets):
+    for section in (_header, _work_precision, _equal_accuracy, _core_steps, _fmu, _c_host,
+                    _cost, _memory_and_targets):
         out += section(result)
     return "\n".join(out)
 
@@ -192,6 +193,48 @@ def _fmu(result: dict) -> list[str]:
               _fmt(v["total_s"])] for k, v in (("empty (compile)", st["compile"]),
                                                ("warm (cached)", st["cached"]))]))
         out.append("")
+    return out
+
+
+def _c_host(result: dict) -> list[str]:
+    """The FMU's per-step cost in a C host and in fmpy, and its first start in the C host."""
+    ch = result.get("c_host")
+    if not ch:
+        return []
+    if ch["note"]:
+        return [ch["note"], ""]
+    out = [f"FMU per step in a C host (benchmarks/fmi2_bench_host.c) and in fmpy, the loop of a "
+           f"master: set {', '.join(ch['inputs'])}; doStep; get {', '.join(ch['outputs'])} "
+           f"({ch['regime']} at the default point, rtol {ch['rtol']:g}, best of {ch['blocks']}"
+           f" blocks of {ch['n']} steps), us per step; engine: its own advance + outputs in "
+           "this process; slave's own = C host GearPair - no-op - engine:"]
+    for clk, what in (("", "wall"), ("_cpu", "CPU")):
+        out.append(table(
+            ["step s", f"C GearPair {what}", "C no-op", "fmpy GearPair", "fmpy no-op",
+             "engine", "slave's own (C)", "C host s/s"],
+            [[_fmt(r["step"]), *[_fmt(r.get(f"{k}{clk}_us"), ".1f") for k in (
+                "c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine",
+                "c_slave_own")], _fmt(r.get("c_per_sim_s")) if not clk else "-"]
+             if not r["error"] else [_fmt(r["step"]), "failed", *["-"] * 6]
+             for r in ch["steps"]]))
+    out += [f"  step {r['step']:g} failed: {r['error']}" for r in ch["steps"] if r["error"]]
+    status = {k: v for r in ch["steps"] for k, v in r.get("exit_status", {}).items()}
+    if status:
+        out.append("C host exit status: " + ", ".join(
+            f"{k} {exit_note(v)}" for k, v in status.items()) + " (each host prints and "
+            "flushes its result before it frees the instance)")
+    st = ch.get("startup")
+    if st and st.get("error"):
+        out.append(f"C host first start failed: {st['error']}")
+    elif st:
+        out.append("FMU first start in the C host (fresh process: instantiate, initialize, "
+                   "first 1e-3 s step), caches = NUMBA_CACHE_DIR and XDG_CACHE_HOME:")
+        out.append(table(
+            ["caches", "instantiate s", "initialize s", "first step s", "total s", "exit"],
+            [[k, _fmt(v["instantiate_s"]), _fmt(v["initialize_s"]), _fmt(v["first_step_s"]),
+              _fmt(v["total_s"]), exit_note(v["exit_status"])]
+             for k, v in (("empty", st["empty"]), ("warm", st["warm"]))]))
+    out.append("")
     return out
 
 

@@ -11,6 +11,7 @@ NOOP_SCRIPT = ROOT / "examples" / "bench_noop" / "GearPairNoop.py"
 SCENES_DIR = ROOT / "examples" / "scenes"
 # the plain scipy implementation a user would write: in the repository, not in the package
 PLAIN_SCRIPT = ROOT / "benchmarks" / "plain_scipy.py"
+HOST_SOURCE = ROOT / "benchmarks" / "fmi2_bench_host.c"  # the C timing host
 PLAIN_PREFIX = "plain "  # method names of its rows: "plain DOP853", ...
 
 REGIMES = ("no_friction", "sliding", "stick_slip")
@@ -21,6 +22,8 @@ TARGET_SPEEDUP = 50.0  # fast core against the fastest scipy method
 TARGET_FMU_FACTOR = 1.2  # FMU <= factor * core + floor at a 1e-3 s step
 TARGET_STICK_SLIP = 0.1  # s of wall time per simulated second
 TARGET_MEMORY_MB = 500.0
+TARGET_SLAVE_OWN_US = 10.0  # C host, 1e-4 s step: GearPair - no-op - engine per step (#16.4)
+TARGET_FIRST_START_S = 5.0  # first instantiation with empty caches (#16.3)
 TARGET_LADDER = 10.0  # torsional constant stiffness at least this much cheaper than stick-slip
 SCIPY_MAX_EVENTS = 1000  # switches per communication step before a scipy run counts as stalled
 LADDER = (
@@ -66,12 +69,16 @@ class Settings:
     fmu_steps, fmu_rtols : communication steps and ``rtol`` parameter of the FMU rows
     step_horizon : simulated time of the costs at a 1e-3 s step (core, FMU, floor)
     calls : number of set+doStep+get calls timed per FMU
+    host_steps : communication steps of the C host and fmpy loops (2 inputs set, doStep,
+        4 outputs got)
+    host_n, host_blocks : steps per timed block and blocks (the best block counts)
     repeats : timed runs of the cheap measurements (the best counts)
     cost_t_end : simulated time of each scene and ladder run
     ladder_repeats : rounds of the effect ladder (each runs every rung once; the best of
         each rung counts). A round costs about half a second, and neighbouring rungs differ
         by a few per cent, so it takes more rounds than ``repeats`` to rank them
-    startup : measure the first instantiation with an empty and a warm numba cache
+    startup : measure the first instantiation with an empty and a warm numba cache (fmpy)
+        and with empty and warm caches (C host)
     memory : measure the peak RSS of a ``memory_t_end`` run recorded every 1e-4 s
     fmu : run the FMU sections (needs pythonfmu and fmpy)
     """
@@ -98,6 +105,9 @@ class Settings:
     fmu_rtols: tuple[float, ...] = (1e-8,)
     step_horizon: float = 1.0
     calls: int = 2000
+    host_steps: tuple[float, ...] = (1e-4, 1e-3)
+    host_n: int = 2000
+    host_blocks: int = 3
     repeats: int = 3
     cost_t_end: float = 0.3
     ladder_repeats: int = 9
@@ -119,6 +129,7 @@ QUICK = Settings(
                  ("LSODA", (1e-5,))),
     plain_rtols=(("RK45", (1e-6,)), ("DOP853", (1e-6, 1e-9))),
     check_horizon=0.0005, check_regimes=("stick_slip",), step_horizon=0.02, calls=150,
+    host_n=100, host_blocks=2,
     repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0)
 FULL = Settings(
     name="full", windows=tuple((r, 0.02) for r in REGIMES),

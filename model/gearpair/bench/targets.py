@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from .settings import (
     TARGET_ERROR,
+    TARGET_FIRST_START_S,
     TARGET_FMU_FACTOR,
     TARGET_LADDER,
     TARGET_MEMORY_MB,
+    TARGET_SLAVE_OWN_US,
     TARGET_SPEEDUP,
     TARGET_STICK_SLIP,
 )
@@ -53,6 +55,7 @@ def targets(result: dict) -> list[dict]:
             continue
         out.append(_target(what, st["fmu_per_sim_s"] / st["allowed_per_sim_s"],
                            st["fmu_per_sim_s_cpu"] / st["allowed_per_sim_s_cpu"], 1.0, ".2f"))
+    out += _host_targets(result.get("c_host"))
     acc = accurate_rtol(result["work_precision"], "stick_slip")
     for c in result["core_steps"]:
         if c["regime"] != "stick_slip":
@@ -81,3 +84,25 @@ def targets(result: dict) -> list[dict]:
                         "met": w["increasing"], "met_cpu": c["increasing"], "short_by": None})
     return out
 
+
+
+def _host_targets(ch: dict | None) -> list[dict]:
+    """Issue #16: the slave's own work per step in a C host at a 1e-4 s step (GearPair -
+    no-op - engine), and the first start with empty caches."""
+    if not ch or ch["note"]:
+        return []
+    out = []
+    for r in ch["steps"]:
+        if r["step"] != 1e-4:
+            continue
+        what = (f"C host at 1e-4 s: slave's own work per step (GearPair - no-op - engine) "
+                f"<= {TARGET_SLAVE_OWN_US:g} us (us)")
+        out.append(_target(what, r.get("c_slave_own_us"), r.get("c_slave_own_cpu_us"),
+                           TARGET_SLAVE_OWN_US, ".1f", error=r["error"]))
+    st = ch.get("startup")
+    if st:
+        what = (f"first start of the FMU with empty caches (C host) <= "
+                f"{TARGET_FIRST_START_S:g} s (s)")
+        out.append(_target(what, None if st["error"] else st["empty"]["total_s"], None,
+                           TARGET_FIRST_START_S, ".1f", error=st["error"]))
+    return out

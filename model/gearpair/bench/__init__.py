@@ -12,14 +12,21 @@ measures in one run, side by side on the same machine:
   default DOP853 and with Dormand-Prince 5(4) (rows ``fast dp5``); scipy's
   RK45, DOP853, Radau and LSODA, run as `gearpair.reference.ReferenceEngine` (scipy's
   ``OdeSolver`` classes, which ``solve_ivp`` drives, stepped segment by segment over the same
-  physics); the FMU through fmpy at communication steps 1e-5, 1e-4 and 1e-3 s.
-- **equal accuracy**: per method the cheapest setting with DTE error <= 1e-6, and the ratio
-  fastest scipy method / fast core.
+  physics); the same four as a user would write the model, ``benchmarks/plain_scipy.py``
+  (rows ``plain <method>``: one numpy right-hand side per contact state, ``solve_ivp`` with
+  terminal events; skipped without the repository); the FMU through fmpy at communication
+  steps 1e-5, 1e-4 and 1e-3 s.
+- **equal accuracy**: per method the cheapest setting with DTE error <= 1e-6, and the ratios
+  fastest scipy method / fast core, on the reference engine and written plainly.
 - **FMU cost** at a 1e-3 s step against the core at the same step (driven as the FMU drives
   it: one ``advance`` + ``outputs`` call per step) and the plumbing floor (the
   same fmpy call on a pythonfmu slave that does nothing, ``examples/bench_noop``); the cost of
   one set+doStep+get call; the first instantiation with an empty numba cache (compile)
   against a warm one.
+- **the FMU in a C master** (issue #16): per-step cost of set 2 inputs + doStep + get 4
+  outputs at 1e-4 and 1e-3 s steps in ``benchmarks/fmi2_bench_host.c`` beside fmpy's, with
+  the no-op slave and the engine's own work, and the first start with empty and warm caches
+  (skipped without gcc or the repository).
 - **cost of effects** (issue #5): wall time per simulated second of every shipped scene and
   of the effect ladder torsional constant stiffness -> time-varying -> 6-DOF -> sliding ->
   stick-slip.
@@ -28,7 +35,8 @@ measures in one run, side by side on the same machine:
 Every section is a function returning plain dicts and lists (JSON-ready), so tests can call
 them with tiny settings; `run` calls them all and `report` prints the tables. Measuring and
 reporting live apart: `settings` (presets, targets), `runs` (timing an engine, errors),
-`work_precision`, `fmu`, `effect_cost`, `memory` and `measure` (the whole run) measure;
+`work_precision`, `plain`, `fmu`, `chost`, `effect_cost`, `memory` and `measure` (the
+whole run) measure;
 `targets`, `report` and `plot` judge and show; `cli` is the command line. FMU runs happen
 in child processes that never import the working tree's ``gearpair`` (the FMU imports its own
 bundled copy, as in any host); timings there use fresh instances whose instantiation is not

@@ -1923,6 +1923,9 @@ class FastEngine(Engine):
             raise ValueError(f"n_samples = {n_samples!r} is out of range; allowed [1, 1000]")
         m = self.model = Model.build(params, effects)
         fx, st = m.effects, m.stiff
+        if m.mu_static != m.mu or fx.stribeck_velocity is not None:
+            raise ValueError("mu_static (other than mu) and stribeck_velocity are not in the "
+                             "fast engine yet; use engine=\"reference\" (FMU: engine = 1)")
         self.rtol = float(rtol)
         self.atol = _SCALE * rtol if atol is None else np.full(N_Y, float(atol))
         if max_step is None:

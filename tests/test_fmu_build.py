@@ -277,10 +277,6 @@ def test_bad_communication_point_and_step_size_are_refused(md, unzipdir):
     ({"z1": 5}, ("z1", "[12, 400]")),
     ({"mu_static": 1.5}, ("mu_static", "[0, 1]")),
     ({"stribeck_velocity": -0.1}, ("stribeck_velocity", "[0, 1] m/s")),
-    # combinations: below the kinetic mu, a law without static friction, the fast engine
-    ({"mu_static": 0.01}, ("mu_static", "[mu, 1] = [0.02, 1]")),
-    ({"mu_static": 0.04, "friction_law": 1, "engine": 1}, ("mu_static", "'nominal'")),
-    ({"mu_static": 0.04}, ("mu_static", "FMU: engine = 1")),
 ])
 def test_out_of_range_parameter_is_refused_when_set(md, unzipdir, start, words):
     g = Instance(md, unzipdir)
@@ -298,6 +294,33 @@ def test_out_of_range_parameter_is_refused_when_set(md, unzipdir, start, words):
     default = FAST.get(name, float(next(v.start for v in md.modelVariables if v.name == name)))
     get = g.fmu.getInteger if isinstance(start[name], int) else g.fmu.getReal
     assert get([g.vr[name]]) == [default]
+    _, rows = g.steps(0.0, 1e-4, 2)
+    assert rows == _reference_rows(md, unzipdir, 2)
+    g.close()
+
+
+@pytest.mark.parametrize("start, words", [
+    # each value in range, together refused: below the kinetic mu, a law without static
+    # friction, the fast engine
+    ({"mu_static": 0.01}, ("mu_static", "[mu, 1] = [0.02, 1]")),
+    ({"mu_static": 0.04, "friction_law": 1, "engine": 1}, ("mu_static", "'nominal'")),
+    ({"mu_static": 0.04}, ("mu_static", "FMU: engine = 1")),
+])
+def test_parameter_combination_is_refused_at_exit_initialization_mode(md, unzipdir, start,
+                                                                      words):
+    """Taken when set, refused by fmi2ExitInitializationMode (fmi2Error, the message names
+    the parameter); after fmi2Reset the instance initializes and steps as a new one."""
+    g = Instance(md, unzipdir)
+    g.fmu.setupExperiment(startTime=0.0)
+    g.set(**FAST, **start)
+    g.fmu.enterInitializationMode()
+    with pytest.raises(FMICallException) as exc:
+        g.fmu.exitInitializationMode()
+    assert exc.value.status == fmi2Error
+    status, msg = g.messages[-1]
+    assert status == fmi2Error and all(w in msg for w in words), msg
+    g.fmu.reset()
+    g.initialize(**FAST)
     _, rows = g.steps(0.0, 1e-4, 2)
     assert rows == _reference_rows(md, unzipdir, 2)
     g.close()

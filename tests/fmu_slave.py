@@ -34,3 +34,14 @@ class LoggingSlave:
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=cb, loggingOn=logging_on)
+
+    def set(self, **values) -> None:
+        """fmi2Set* by name: a bool as Boolean, an int as Integer, anything else as Real."""
+        for name, value in values.items():
+            vr = [self.vr[name]]
+            if isinstance(value, bool):
+                self.fmu.setBoolean(vr, [value])
+            elif isinstance(value, int):
+                self.fmu.setInteger(vr, [value])
+            else:
+                self.fmu.setReal(vr, [float(value)])

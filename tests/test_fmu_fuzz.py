@@ -17,7 +17,6 @@ Seeds are fixed, so a failure reproduces: rerun the printed command line.
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -25,7 +24,7 @@ import pytest
 
 fmpy = pytest.importorskip("fmpy")
 
-from test_hosts import _signal_name, native_env  # noqa: E402
+from test_hosts import _signal_name, compile_c_host, native_env  # noqa: E402
 
 pytestmark = pytest.mark.fmu
 
@@ -61,14 +60,7 @@ def fuzz_spec(md) -> str:
 
 @pytest.fixture(scope="module")
 def fuzzer(tmp_path_factory) -> Path:
-    gcc = shutil.which("gcc") or shutil.which("cc")
-    if gcc is None:
-        pytest.skip("no C compiler")
-    include = Path(fmpy.__file__).parent / "c-code"
-    exe = tmp_path_factory.mktemp("fuzz") / "fmi2_fuzz"
-    subprocess.run([gcc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{include}",
-                    "-o", str(exe), str(FUZZ_C), "-ldl", "-lm"], check=True)
-    return exe
+    return compile_c_host(FUZZ_C, tmp_path_factory.mktemp("fuzz") / "fmi2_fuzz")
 
 
 @pytest.mark.parametrize("seed", SEEDS)

@@ -34,16 +34,6 @@ def unzipdir(fmu_path, tmp_path_factory) -> str:
 
 
 class G(LoggingSlave):
-    def set(self, **values) -> None:
-        for name, value in values.items():
-            vr = [self.vr[name]]
-            if isinstance(value, bool):
-                self.fmu.setBoolean(vr, [value])
-            elif isinstance(value, int):
-                self.fmu.setInteger(vr, [value])
-            else:
-                self.fmu.setReal(vr, [float(value)])
-
     def init(self, **start) -> None:
         self.fmu.setupExperiment(startTime=0.0)
         self.set(rtol=RTOL, **start)

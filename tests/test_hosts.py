@@ -127,19 +127,23 @@ def _signal_name(rc: int) -> str:
         return str(rc)
 
 
-@pytest.fixture(scope="module")
-def c_host(tmp_path_factory) -> Path:
-    """examples/hosts/fmi2_host.c built with gcc against fmpy's FMI 2 headers."""
+def compile_c_host(source: Path, exe: Path) -> Path:
+    """Build a C host with gcc against fmpy's FMI 2 headers (skip without either)."""
     gcc = shutil.which("gcc") or shutil.which("cc")
     if gcc is None:
         pytest.skip("no C compiler")
     include = Path(fmpy.__file__).parent / "c-code"
     if not (include / "fmi2Functions.h").is_file():
         pytest.skip(f"fmpy ships no FMI 2 headers in {include}")
-    exe = tmp_path_factory.mktemp("c_host") / "fmi2_host"
     subprocess.run([gcc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{include}",
-                    "-o", str(exe), str(HOSTS / "fmi2_host.c"), "-ldl"], check=True)
+                    "-o", str(exe), str(source), "-ldl", "-lm"], check=True)
     return exe
+
+
+@pytest.fixture(scope="module")
+def c_host(tmp_path_factory) -> Path:
+    """examples/hosts/fmi2_host.c, built."""
+    return compile_c_host(HOSTS / "fmi2_host.c", tmp_path_factory.mktemp("c_host") / "fmi2_host")
 
 
 def test_c_host_variable_steps(fmu_path, tmp_path, c_host):

@@ -413,6 +413,17 @@ static uint32_t get32(const unsigned char *p) {
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
+/* Deliver what the slave queued outside a call (its constructor's messages, e.g. after
+ * fmi2Instantiate or fmi2Reset): pythonfmu passes queued messages on at the end of each call,
+ * and its destructor crashes (SIGSEGV in clearLogBuffer) when it finds any left at
+ * fmi2FreeInstance. A fmi2GetReal of no variables is a call that does nothing else. */
+static void flush_log(Shim *s) {
+    fmi2ValueReference none = 0;
+    fmi2Real unused = 0.0;
+    begin(s);
+    settle(s, inner.get_real(s->inner, &none, 0, &unused));
+}
+
 static State *find_state(Shim *s, fmi2FMUstate p, State ***link) {
     State **l = &s->states;
     for (State *st = s->states; st; l = &st->next, st = st->next)
@@ -482,6 +493,7 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
         goto fail;
     }
     if (!s->inner) goto fail; /* pythonfmu logged why */
+    flush_log(s);
     return s;
 fail:
     free(s->name);
@@ -498,6 +510,7 @@ EXPORT void fmi2FreeInstance(fmi2Component c) {
         st->magic = 0;
         free(st);
     }
+    if (s->mode != M_FATAL) flush_log(s);
     pthread_mutex_lock(&g_lock);
     inner.free_instance(s->inner);
     pthread_mutex_unlock(&g_lock);
@@ -577,7 +590,10 @@ EXPORT fmi2Status fmi2Reset(fmi2Component c) {
     if (!s || !allowed(s, ANY_LIVE, "fmi2Reset")) return fmi2Error;
     begin(s);
     fmi2Status st = settle(s, inner.reset(s->inner));
-    if (st <= fmi2Warning) s->mode = M_INSTANTIATED;
+    if (st <= fmi2Warning) {
+        s->mode = M_INSTANTIATED;
+        flush_log(s); /* the new slave's constructor messages */
+    }
     return st;
 }
 

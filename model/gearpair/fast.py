@@ -85,7 +85,7 @@ from .engine import (  # noqa: E402
     check_inputs,
 )
 from .equations import U2, Model  # noqa: E402
-from .params import GearParams  # noqa: E402
+from .params import GearParams, check_rtol  # noqa: E402
 
 
 def _install_locator() -> bool:
@@ -1951,8 +1951,7 @@ class FastEngine(Engine):
         if method not in _METHOD_CODE:
             raise ValueError(f"method = {method!r} is not known; allowed "
                              f"{', '.join(sorted(_METHOD_CODE))}")
-        if not (1e-14 <= rtol <= 1e-2):
-            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        check_rtol(rtol)
         if not (1 <= int(n_samples) <= 1000):
             raise ValueError(f"n_samples = {n_samples!r} is out of range; allowed [1, 1000]")
         m = self.model = Model.build(params, effects)

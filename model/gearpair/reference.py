@@ -35,7 +35,7 @@ from .engine import (
     check_inputs,
 )
 from .equations import U1, U2, G, Model, evaluate
-from .params import GearParams
+from .params import GearParams, check_rtol
 from .switching import (
     Mode,
     event_labels,
@@ -75,8 +75,7 @@ class ReferenceEngine(Engine):
                  max_events: int = 100_000) -> None:
         if method not in METHODS:
             raise ValueError(f"method = {method!r}; choose one of {', '.join(METHODS)}")
-        if not (1e-14 <= rtol <= 1e-2):
-            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        check_rtol(rtol)
         self.model = Model.build(params, effects)
         self._prev_active = None  # pairs in contact in the last segment (set by reset)
         self._released = None  # (pair, time) of the last release of a stick

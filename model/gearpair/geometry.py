@@ -1,4 +1,4 @@
-"""Spur gear geometry along the line of action (MODEL.md "Geometry", Fig. 3).
+"""Spur gear geometry along the line of action (docs/model.md, Fig. 3).
 
 Positions along the line of action (LOA) are measured from S1, the tangent point on gear 1's
 base circle. Contact runs A -> B -> P -> D -> E: A start of contact, P the pitch point,

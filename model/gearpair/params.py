@@ -106,7 +106,7 @@ class GearParams:
                 raise ValueError(
                     f"{name} must be a whole number of teeth, got {getattr(self, name)}")
 
-    # -- derived quantities (Eq. (5) and MODEL.md "Damping") --------------------------------
+    # -- derived quantities (Eq. (5) and docs/model.md "Choices") --------------------------------
     @property
     def rb1(self) -> float:
         """Base radius of gear 1 (m)."""
@@ -209,7 +209,7 @@ def check_range(name: str, value: Any, meta: dict) -> None:
 
 @dataclass(frozen=True)
 class OperatingPoint:
-    """Default operating inputs (the paper does not state them; MODEL.md).
+    """Default operating inputs (the paper does not state them; docs/model.md "Choices").
 
     The slip model's mesh force spans 25-60 kN in Fig. 10, so the mean mesh force is near
     42 kN, i.e. a torque near 3.9 kN.m; stick occurs below 300 r/min (Fig. 15).

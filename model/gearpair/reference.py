@@ -8,7 +8,7 @@ integrates the equations of one contact state (`equations.evaluate`). When the s
   travel, never events to hunt;
 - *unknown* switches (`switching`) are located on the solver's dense output. scipy's own event
   handling compares signs only at step ends and silently loses a crossing that begins and
-  ends inside one step (MODEL.md, "Two traps"); here every accepted step is also sampled at
+  ends inside one step (docs/model.md); here every accepted step is also sampled at
   ``n_samples`` interior points and the first fall through zero is refined with Brent's
   method, and the step is bounded by ``max_step``.
 

@@ -13,7 +13,8 @@ when it must change, so an engine only watches for a fall through zero:
 
 With ``stick_tie="paper"`` the static friction of Eq. (20)-(21) lacks the rate of the nominal
 sliding velocity. Then Eq. (14) may release a stick while the slip dynamics on both sides push
-``v_j`` back to zero (the band of MODEL.md, "Two traps"), and a literal implementation stalls.
+``v_j`` back to zero (the band of docs/model.md, "The paper's tie and the switching rule"),
+and a literal implementation stalls.
 Rule used here: a pair sticks while ``min(|f_static,paper|, |f_static,exact|) <= mu f_mesh``;
 it is released only when both exceed the limit, in the direction of the exact one. So the
 paper tie can only lengthen sticks, never chatter.

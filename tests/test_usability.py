@@ -297,3 +297,27 @@ def test_plot_title_gives_the_operating_point():
     title = plot_title(ramp, "reference")
     assert "3900->-3900 N.m ramp" in title and "backlash 100 um" in title
     assert [f.name for f in fields(GearParams)]  # (keeps the import honest)
+
+
+def test_sweep_title_gives_the_operating_point():
+    from gearpair.sweep import SweepSettings, sweep_title
+
+    title = sweep_title("speed_rpm", SweepSettings(torque=3000.0, params=(("mu", 0.03),),
+                                                   friction="nominal"))
+    assert "sweep of speed_rpm" in title and "3000 N.m" in title and "mu 0.03" in title
+    assert "friction nominal" in title and "r/min" not in title  # the swept one is the axis
+    assert "100 r/min" in sweep_title("torque", SweepSettings())
+
+
+def test_readme_says_what_is_tested_where():
+    import zipfile
+
+    readme = (ROOT / "README.md").read_text()
+    assert "Tested on Linux x86_64" in readme
+    fmu = ROOT / "dist" / "GearPair.fmu"
+    if fmu.is_file():  # every platform the FMU ships a binary for is named with its status
+        with zipfile.ZipFile(fmu) as z:
+            platforms = {n.split("/")[1] for n in z.namelist()
+                         if n.startswith("binaries/") and n.count("/") >= 2}
+        for plat in platforms:
+            assert plat in readme, plat

@@ -93,10 +93,10 @@ def plot(results: dict[str, dict[str, np.ndarray]], params: dict[str, dict],
     state = ref["GearPair.contact_state"]
     band = a.get_xaxis_transform()
     a.fill_between(t, 0.0, 1.0, where=state == 2, step="post", transform=band, lw=0,
-                   color="tab:blue", alpha=0.18, label="stuck at the step end")
+                   color="tab:blue", alpha=0.35, label="stuck at the step end")
     if np.any(state == 0):
         a.fill_between(t, 0.0, 1.0, where=state == 0, step="post", transform=band, lw=0,
-                       color="tab:orange", alpha=0.18, label="apart at the step end")
+                       color="tab:orange", alpha=0.35, label="apart at the step end")
     a.plot(tb, stick, lw=1.2, color="tab:blue", label="stick fraction (10 ms mean)")
     a.plot(tb, sep, lw=1.2, color="tab:orange", label="separation fraction (10 ms mean)")
     a.set_ylabel("fraction of time")
@@ -120,13 +120,13 @@ def plot(results: dict[str, dict[str, np.ndarray]], params: dict[str, dict],
             if zero.all():
                 label = f"{m}: {sig} (identical at every step)"
             elif zero.any():
-                label = f"{m}: {sig} ({zero.mean():.0%} of steps identical)"
+                label = f"{m}: {sig} ({zero.sum()} of {zero.size} steps identical)"
             else:
                 label = f"{m}: {sig}"
             a.semilogy(t, np.where(zero, floor, diff), lw=0.6, label=label)
     a.set_ylabel(f"|master - {reference}| / max")
     a.set_xlabel("time (s)")
-    a.set_ylim(floor / 10, 1e-3)
+    a.set_ylim(floor / 10, 1e3)  # room above the data for the legend
     a.legend(loc="upper left", fontsize=7, ncol=2)
 
     h = float(t[1] - t[0])
@@ -136,7 +136,7 @@ def plot(results: dict[str, dict[str, np.ndarray]], params: dict[str, dict],
     fig.suptitle(f"Driveline start-up: Motor - GearPair - Load, Jacobi, {h:g} s steps "
                  f"({', '.join(results)})\nmotor {mo['T_stall']:g} N.m at stall, no load at "
                  f"{mo['w_noload'] * rpm:g} r/min; load {ld['T_load']:g} N.m + "
-                 f"{ld['T_step']:g} N.m at {ld['t_step']:g} s; GearPair mu "
+                 f"{ld['T_step']:g} N.m at {ld['t_step']:g} s;\nGearPair mu "
                  f"{gp.get('mu', 0.02):g}, {laws.get(int(gp.get('friction_law', 3)), '')}, "
                  f"kr1 {gp.get('kr1', 0):g} N/m")
     fig.tight_layout()

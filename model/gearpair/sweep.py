@@ -661,6 +661,21 @@ def _axis_label(name: str) -> str:
     return f"{name} ({unit})" if unit and unit != "1" else name
 
 
+def sweep_title(name: str, s: SweepSettings) -> str:
+    """Figure title: what is swept and the operating point held (speed, torque, mu, the
+    changed gear data) with the effects."""
+    over = dict(s.params)
+    held = [f"{s.speed_rpm:g} r/min" if name != "speed_rpm" else None,
+            f"{s.torque:g} N.m" if name != "torque" else None,
+            f"mu {over.get('mu', GearParams().mu):g}" if name != "mu" else None]
+    held += [f"{k} {v:g}" for k, v in over.items() if k not in ("mu", name)]
+    eff = f"friction {s.friction}, stiffness {s.stiffness}, sliding {s.sliding}, tie {s.stick_tie}"
+    if not s.separation:
+        eff += ", no separation"
+    return (f"sweep of {name} at {', '.join(h for h in held if h)}\n{eff}; "
+            f"rtol {s.rtol:g}")
+
+
 def plot_sweep(result: SweepResult, path: str | Path, title: str | None = None) -> Path:
     """Ratios against the swept value (Figs. 15, 17, 18) over the Poincare section of the DTE
     (Fig. 16); failed points are red crosses on the axis."""
@@ -687,8 +702,7 @@ def plot_sweep(result: SweepResult, path: str | Path, title: str | None = None) 
     ax2.set_ylabel("DTE, one sample per mesh period (um)")
     ax2.grid(alpha=0.3)
     s = result.settings
-    fig.suptitle(title or f"{s.friction}, tie {s.stick_tie}, sliding {s.sliding}: "
-                 f"sweep of {result.name}", fontsize=10)
+    fig.suptitle(title or sweep_title(result.name, s), fontsize=10)
     fig.savefig(path, dpi=120)
     return Path(path)
 

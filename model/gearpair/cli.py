@@ -279,7 +279,7 @@ def _add_gear_options(p: argparse.ArgumentParser) -> None:
                    "repeatable; names and ranges in docs/scenes.md [gear]")
     g.add_argument("--bore-ratio", type=float, metavar="R",
                    help="derive m1, J1, m2, J2 from module, teeth and face width as steel "
-                   "rings (7850 kg/m3) with bore diameter = R x pitch diameter, R in [0, 1) "
+                   "rings (7850 kg/m3) with bore diameter = R x pitch diameter, R in [0, 0.99] "
                    "(Table 1's bodies are R = 0.8; docs/model.md); default: keep them")
     g.add_argument("--first-mode-hz", type=float, metavar="HZ",
                    help="derive kr2 so that the slip model's first natural frequency is HZ "

@@ -139,6 +139,7 @@ class Geometry:
 # -- gear bodies from the geometry ---------------------------------------------------------------
 STEEL_DENSITY = 7850.0  # kg/m^3
 BORE_RATIO_TABLE1 = 0.8  # Table 1's masses and inertias are steel rings of this bore ratio
+BORE_RATIO_MAX = 0.99  # a thinner rim is no gear body
 
 
 def body_mass_inertia(module: float, teeth: int, face_width: float,
@@ -159,9 +160,9 @@ def body_mass_inertia(module: float, teeth: int, face_width: float,
     ratio 0.8 within 0.7 % (17.40 kg / 0.1399 kg.m2 against 17.29 / 0.139; 102.3 / 4.831
     against 101.62 / 4.799).
     """
-    if not (math.isfinite(bore_ratio) and 0.0 <= bore_ratio < 1.0):
-        raise ValueError(f"bore_ratio = {bore_ratio!r} is out of range; allowed [0, 1) "
-                         "(bore diameter over pitch diameter)")
+    if not (math.isfinite(bore_ratio) and 0.0 <= bore_ratio <= BORE_RATIO_MAX):
+        raise ValueError(f"bore_ratio = {bore_ratio!r} is out of range; allowed "
+                         f"[0, {BORE_RATIO_MAX:g}] (bore diameter over pitch diameter)")
     if not (math.isfinite(density) and 0.0 < density <= 1e5):
         raise ValueError(f"density = {density!r} is out of range; allowed (0, 1e+05] kg/m^3")
     r = module * teeth / 2.0

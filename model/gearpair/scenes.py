@@ -25,6 +25,7 @@ import numpy as np
 
 from .effects import Effects, StiffnessSpec
 from .equations import check_friction_coefficients
+from .geometry import BORE_RATIO_MAX
 from .params import RPM, RTOL_MAX, RTOL_MIN, GearParams, OperatingPoint, check_range, unit_name
 from .results import UNITS, Constant, Trajectory, simulate
 
@@ -502,7 +503,7 @@ def _derivation(d: dict) -> dict[str, Any]:
             vals = (_num(where, key, v),)
         for x in vals:
             if key == "bore_ratio":
-                _range(where, key, x, 0.0, 0.99, "(bore diameter over pitch diameter)")
+                _range(where, key, x, 0.0, BORE_RATIO_MAX, "(bore diameter over pitch diameter)")
             else:
                 _range(where, key, x, 0.0, 1e5, "Hz", lo_open=True)
         out[key] = vals if len(vals) == 2 else vals[0]

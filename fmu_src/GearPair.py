@@ -409,6 +409,7 @@ class GearPair(Fmi2Slave):
         if make is not None:
             if engine == "fast":
                 try:
+                    self._load_fast_engine()
                     return make(params, effects, engine="fast", rtol=float(self.rtol))
                 except ImportError as exc:  # numba missing in this host's Python
                     self.log(f"engine fast unavailable ({exc}); using engine reference",
@@ -416,6 +417,19 @@ class GearPair(Fmi2Slave):
             return make(params, effects, engine="reference", rtol=float(self.rtol))
         reference = importlib.import_module(gp.__name__ + ".reference")
         return reference.ReferenceEngine(params, effects, rtol=float(self.rtol))
+
+    def _load_fast_engine(self) -> None:
+        """Load the fast engine's compiled code (shipped in this FMU, from the user cache, or
+        compiled now) once per process, and say which and how long it took (status OK)."""
+        jitcache = importlib.import_module(self._gp.__name__ + ".jitcache")
+        try:
+            report = jitcache.load_engine()
+        except Exception as e:  # noqa: BLE001 - the engine then compiles on first use
+            self.log(f"fast engine: loading its compiled code failed ({type(e).__name__}: "
+                     f"{e}); it compiles on first use", Fmi2Status.warning)
+            return
+        if report["first"]:
+            self.log(jitcache.describe(report, "this FMU"), Fmi2Status.ok)
 
     def _ensure_engine(self) -> str | None:
         """Build the engine if needed; return an error message or None."""

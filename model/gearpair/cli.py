@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 
@@ -193,6 +194,8 @@ def _bench(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    # a first run on a machine compiles the fast engine: say so on stderr (gearpair.jitcache)
+    os.environ.setdefault("GEARPAIR_COMPILE_NOTICE", "1")
     try:
         return {"modes": _modes, "simulate": _simulate, "sweep": _sweep,
                 "bench": _bench}[args.cmd](args)

@@ -324,7 +324,9 @@ def _add_compiled_engine(package: Path, import_name: str) -> None:
     """Resources hook: the fast engine compiled for a portable CPU, in the bundled package's
     ``_compiled`` folder (`gearpair.shipped`), so that a first instantiation with the
     Python, numba and numpy versions of this build loads it instead of compiling."""
-    importlib.import_module(import_name + ".shipped").ship(package, import_name)
+    if importlib.import_module(import_name + ".shipped").ship(package, import_name) is None:
+        print("build_fmu: numba is not installed: the FMU ships no compiled engine",
+              file=sys.stderr)
 
 
 def build(out: str | Path = "dist", package: str | Path = PACKAGE,

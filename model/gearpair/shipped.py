@@ -78,14 +78,19 @@ with open(out, "w") as fh:
 """
 
 
-def ship(package: str | Path, import_name: str, timeout: float = 1800.0) -> dict:
+def ship(package: str | Path, import_name: str, timeout: float = 1800.0) -> dict | None:
     """Compile the engine of the package copy in ``package`` (imported as ``import_name``,
     the name it will run under: numba's cached code names its module) for
-    `portable_target` and write ``<package>/_compiled``. Returns the manifest.
+    `portable_target` and write ``<package>/_compiled``. Returns the manifest, or None
+    without numba (nothing to ship; the package then runs its reference engine).
 
-    The compile (about a minute) is kept in ``<user cache>/portable-<target>``, so building
-    again with unchanged engine sources copies it in a few seconds.
+    The compile (about 45 s of CPU time) is kept in ``<user cache>/portable-<target>``, so
+    building again with unchanged engine sources copies it in a few seconds.
     """
+    import importlib.util
+
+    if importlib.util.find_spec("numba") is None:
+        return None
     package = Path(package).resolve()
     target, _ = portable_target()
     base = user_cache_dir() or tempfile.mkdtemp(prefix="gearpair_ship_")

@@ -53,7 +53,7 @@ from .engine import (
 )
 from .equations import U2, Model
 from .jitcache import jit, jit_inline
-from .params import GearParams
+from .params import GearParams, check_rtol
 
 # -- flat layout of the model data ---------------------------------------------------------
 # float parameters (mp)
@@ -1917,8 +1917,7 @@ class FastEngine(Engine):
         if method not in _METHOD_CODE:
             raise ValueError(f"method = {method!r} is not known; allowed "
                              f"{', '.join(sorted(_METHOD_CODE))}")
-        if not (1e-14 <= rtol <= 1e-2):
-            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        check_rtol(rtol)
         if not (1 <= int(n_samples) <= 1000):
             raise ValueError(f"n_samples = {n_samples!r} is out of range; allowed [1, 1000]")
         m = self.model = Model.build(params, effects)

@@ -355,12 +355,6 @@ class GearPair(Fmi2Slave):
             else:
                 setattr(self, v["name"], float(start) if start is not None else 0.0)
             self._register(v)
-        self._engine = None
-        self._engine_key: tuple | None = None  # parameter values the engine was built with
-        self._params_set = True  # a parameter was set since the last comparison with the key
-        self._start_time = 0.0
-        self._stepped = False  # at least one step done since initialization
-        self._poisoned: str | None = None  # set when a state restore failed
         self._fast_step = None  # `_make_fast_step`, after the first step
         by_type = {t: {vr: v.name for vr, v in self.vars.items() if type(v) is c}
                    for t, c in (("Real", Real), ("Integer", Integer))}
@@ -368,6 +362,12 @@ class GearPair(Fmi2Slave):
         self._integer_names = by_type["Integer"]
         self._input_names = {vr: v.name for vr, v in self.vars.items()
                              if type(v) is Real and v.causality == Fmi2Causality.input}
+        self._engine = None
+        self._engine_key: tuple | None = None  # parameter values the engine was built with
+        self._params_set = True  # a parameter was set since the last comparison with the key
+        self._start_time = 0.0
+        self._stepped = False  # at least one step done since initialization
+        self._poisoned: str | None = None  # set when a state restore failed
 
     # -- setup -------------------------------------------------------------------------------
     def _register(self, v: dict) -> None:

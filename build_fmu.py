@@ -425,6 +425,15 @@ def _load_interface(staging: Path, script: Path):
     return mod, mod.interface(gp)
 
 
+def _add_compiled_engine(package: Path, import_name: str) -> None:
+    """Resources hook: the fast engine compiled for a portable CPU, in the bundled package's
+    ``_compiled`` folder (`gearpair.shipped`), so that a first instantiation with the
+    Python, numba and numpy versions of this build loads it instead of compiling."""
+    if importlib.import_module(import_name + ".shipped").ship(package, import_name) is None:
+        print("build_fmu: numba is not installed: the FMU ships no compiled engine",
+              file=sys.stderr)
+
+
 def build(out: str | Path = "dist", package: str | Path = PACKAGE,
           script: str | Path = SCRIPT) -> Path:
     """Build ``<out>/GearPair.fmu`` and return its path."""
@@ -443,6 +452,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
                             ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo"))
             (staging / "requirements.txt").write_text(REQUIREMENTS)
             mod, spec = _load_interface(staging, script)
+            _add_compiled_engine(staging / "gearpair", mod.BUNDLE)
             docs = Path(tmp) / "documentation"
             docs.mkdir()
             (docs / "index.html").write_text(render_documentation(spec, mod.CHOICES),

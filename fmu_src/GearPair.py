@@ -330,6 +330,13 @@ class GearPair(Fmi2Slave):
             else:
                 setattr(self, v["name"], float(start) if start is not None else 0.0)
             self._register(v)
+        self._fast_step = None  # `_make_fast_step`, after the first step
+        by_type = {t: {vr: v.name for vr, v in self.vars.items() if type(v) is c}
+                   for t, c in (("Real", Real), ("Integer", Integer))}
+        self._real_names = by_type["Real"]  # value reference -> attribute: `get_real`
+        self._integer_names = by_type["Integer"]
+        self._input_names = {vr: v.name for vr, v in self.vars.items()
+                             if type(v) is Real and v.causality == Fmi2Causality.input}
         self._engine = None
         self._engine_key: tuple | None = None  # parameter values the engine was built with
         self._params_set = True  # a parameter was set since the last comparison with the key
@@ -409,6 +416,7 @@ class GearPair(Fmi2Slave):
         if make is not None:
             if engine == "fast":
                 try:
+                    self._load_fast_engine()
                     return make(params, effects, engine="fast", rtol=float(self.rtol))
                 except ImportError as exc:  # numba missing in this host's Python
                     self.log(f"engine fast unavailable ({exc}); using engine reference",
@@ -416,6 +424,19 @@ class GearPair(Fmi2Slave):
             return make(params, effects, engine="reference", rtol=float(self.rtol))
         reference = importlib.import_module(gp.__name__ + ".reference")
         return reference.ReferenceEngine(params, effects, rtol=float(self.rtol))
+
+    def _load_fast_engine(self) -> None:
+        """Load the fast engine's compiled code (shipped in this FMU, from the user cache, or
+        compiled now) once per process, and say which and how long it took (status OK)."""
+        jitcache = importlib.import_module(self._gp.__name__ + ".jitcache")
+        try:
+            report = jitcache.load_engine()
+        except Exception as e:  # noqa: BLE001 - the engine then compiles on first use
+            self.log(f"fast engine: loading its compiled code failed ({type(e).__name__}: "
+                     f"{e}); it compiles on first use", Fmi2Status.warning)
+            return
+        if report["first"]:
+            self.log(jitcache.describe(report, "this FMU"), Fmi2Status.ok)
 
     def _ensure_engine(self) -> str | None:
         """Build the engine if needed; return an error message or None."""
@@ -519,9 +540,104 @@ class GearPair(Fmi2Slave):
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         try:
-            return self._do_step(float(current_time), float(step_size))
+            fast = self._fast_step
+            if fast is not None:
+                done = fast(current_time, step_size)
+                if done is not None:
+                    return done
+            done = self._do_step(float(current_time), float(step_size))
+            if done and fast is None:
+                self._fast_step = self._make_fast_step()
+            return done
         except Exception as e:  # noqa: BLE001 - never let an exception reach pythonfmu
             return self._error(f"internal error in do_step: {type(e).__name__}: {e}")
+
+    def _make_fast_step(self):
+        """The usual doStep of the fast engine as one closure, or None (another engine).
+
+        It takes the step when nothing needs a word: the engine built at initialization is
+        still the slave's, no parameter was set since, a step was done, the step size is
+        positive and finite, the communication point is the FMU's time and the inputs are
+        floats in range (`gearpair.engine.check_inputs`). It makes the same engine calls as
+        `_do_step` and so gives bit-identical outputs; it only skips the lookups and checks
+        made for the general case. Anything else, a failed or non-finite step included
+        (rolled back first), returns None and `_do_step` then handles the call and says why.
+        """
+        eng = self._engine
+        advance = getattr(eng, "advance_values", None)
+        snapshot, restore = getattr(eng, "snapshot", None), getattr(eng, "restore", None)
+        if advance is None or snapshot is None or restore is None:
+            return None
+        outputs = eng.output_values
+        with_load = bool(self.load_speed_input)
+        isfinite, inf = math.isfinite, math.inf
+
+        def step(t, h):
+            if self._engine is not eng or self._params_set or self._poisoned or \
+                    not self._stepped:
+                return None
+            torque, speed = self.torque, self.speed
+            if not (type(t) is float and type(h) is float and 0.0 < h < inf and
+                    type(torque) is float and type(speed) is float and
+                    abs(torque) <= 1e6 and abs(speed) <= 2e4):
+                return None
+            load = None
+            if with_load:
+                load = self.load_speed
+                if type(load) is not float or not abs(load) <= 2e4:
+                    return None
+            if not abs(t - eng.time) <= 1e-9 * max(1.0, abs(t), h):
+                return None
+            saved = snapshot()
+            try:
+                f = advance(t + h, torque, speed, load)
+                values = outputs().tolist()
+                ok = isfinite(sum(values) + f[0] + f[1] + f[2])
+            except Exception:  # noqa: BLE001 - `_do_step` repeats the step and reports
+                ok = False
+            if not ok:
+                restore(saved)
+                return None
+            (self.dte, self.mesh_force, self.friction_force, cs, self.output_torque,
+             self.input_torque_reaction, self.input_torque, self.gear1_speed,
+             self.gear2_speed, self.sliding_velocity) = values
+            self.contact_state = int(cs)
+            self.stick_fraction, self.separation_fraction = float(f[0]), float(f[1])
+            self.mesh_force_max, self.n_events = float(f[2]), int(f[3])
+            return True
+
+        return step
+
+    # pythonfmu's getters and setters call one Python function per variable; these serve the
+    # per-step calls (outputs, inputs) straight from the instance's attributes and leave
+    # everything else (parameters with their setters, wrong types) to pythonfmu. (Plain loops:
+    # cheaper than comprehensions for a handful of values.)
+    def get_real(self, vrs):
+        d, names, out = self.__dict__, self._real_names, []
+        for vr in vrs:
+            n = names.get(vr)
+            if n is None:
+                return super().get_real(vrs)
+            out.append(d[n])
+        return out
+
+    def get_integer(self, vrs):
+        d, names, out = self.__dict__, self._integer_names, []
+        for vr in vrs:
+            n = names.get(vr)
+            if n is None:
+                return super().get_integer(vrs)
+            out.append(d[n])
+        return out
+
+    def set_real(self, vrs, values):
+        d, names = self.__dict__, self._input_names
+        for vr, x in zip(vrs, values):  # noqa: B905 - as pythonfmu (a keyword costs here)
+            n = names.get(vr)
+            if n is None:  # pythonfmu sets them all again (the inputs to the same values)
+                return super().set_real(vrs, values)
+            d[n] = x
+        return None
 
     def _do_step(self, t: float, h: float) -> bool:
         if self._poisoned:

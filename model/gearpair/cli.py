@@ -13,6 +13,7 @@ import argparse
 import difflib
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -388,6 +389,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.cmd is None:  # bare `gearpair`: the help, and argparse's status for a usage error
         ap.print_help()
         return 2
+    # a first run on a machine compiles the fast engine: say so on stderr (gearpair.jitcache)
+    os.environ.setdefault("GEARPAIR_COMPILE_NOTICE", "1")
     with warnings.catch_warnings():
         warnings.showwarning = _warning_line
         try:

@@ -71,7 +71,7 @@ def _scene_from_flags(args):
     scene = Scene(
         name="command line", params=GearParams(mu=args.mu), effects=_effects(args),
         inputs=Inputs(torque=Constant(op.torque), speed=Constant(op.speed)),
-        solver=Solver(engine=args.engine or "reference", rtol=args.rtol),
+        solver=Solver(engine=args.engine or "fast", rtol=args.rtol),
         outputs=OutputSpec(interval=args.dt), t_end=t_end)
     # the window as a fraction of t_end, kept even past the end (then the summary says so)
     return scene, t_end * args.steady_from, {"torque_nm": op.torque, "speed_rpm": args.speed_rpm}
@@ -85,27 +85,67 @@ def _scene_from_file(args):
         flags = ", ".join("--" + k.replace("_", "-") for k in given)
         raise ValueError(f"{flags}: set this in the scene file; with a scene only --engine, "
                          "--t-end, --out, --plot and --json apply")
-    scene = load_scene(args.scene)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_scene(args.scene)
+    for w in caught:  # one line each, before the run (e.g. an input-CSV column no input uses)
+        print(f"gearpair: warning: {w.message}", file=sys.stderr)
     if args.t_end is not None:
         scene = scene.with_t_end(args.t_end)
     return scene, scene.t_from, {"scene_file": str(args.scene)}
 
 
+def _check_outputs(args) -> None:
+    """Refuse what would fail only after the run: create the folders of --out and --plot
+    (as ``sweep --out`` does) and check the figure format."""
+    from pathlib import Path
+
+    for flag, path in (("--out", args.out), ("--plot", args.plot)):
+        if not path:
+            continue
+        p = Path(path)
+        if p.is_dir():
+            raise ValueError(f"{flag} {path}: is a folder; give a file name")
+        try:
+            p.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"{flag} {path}: cannot create its folder ({exc.strerror})") \
+                from None
+    if args.plot:
+        try:
+            from matplotlib.backend_bases import FigureCanvasBase
+        except ImportError:  # reported by Trajectory.plot after the run
+            return
+        kinds = FigureCanvasBase.get_supported_filetypes()
+        suffix = Path(args.plot).suffix.lstrip(".").lower()
+        if suffix not in kinds:
+            raise ValueError(f"--plot {args.plot}: unknown figure format {suffix!r}; allowed "
+                             + ", ".join(sorted(kinds)))
+
+
 def _simulate(args) -> int:
     scene, t_from, extra = (_scene_from_file if args.scene else _scene_from_flags)(args)
     engine = args.engine or scene.solver.engine
+    _check_outputs(args)
     wall0 = time.perf_counter()
     try:
         traj = scene.run(engine)
-    except (RuntimeError, ImportError) as exc:  # a failed run or a missing extra, not bad input
+    except (RuntimeError, ArithmeticError, ImportError) as exc:
+        # a failed run or a missing extra, not bad input
         print(f"gearpair: error: {exc}", file=sys.stderr)
         return 1
-    wall = time.perf_counter() - wall0
+    # run time apart from start-up (building the engine, loading its compiled code): the
+    # FMU's run includes its instantiation, so its start-up is not known apart
+    startup = traj.meta.get("startup_s")
+    wall = traj.meta.get("wall_time_s", time.perf_counter() - wall0)
     summ = {"scene": scene.name, "engine": engine, "t_end": scene.t_end, **extra,
             **traj.summary(t_from)}
     summ["events"] = int(np.sum(traj["n_events"]))
     summ["wall_time_s"] = wall
     summ["wall_time_per_simulated_s"] = wall / scene.t_end
+    summ["startup_s"] = startup
     if args.out:
         traj.to_csv(args.out, scene.outputs.names if args.scene else None)
         summ["out"] = args.out
@@ -119,7 +159,7 @@ def _simulate(args) -> int:
     if args.json:
         print(json.dumps(summ, indent=2))
         return 0
-    f, d = summ["mesh_force_n"], summ["dte_m"]
+    f, d = summ["mesh_force_n"], summ["dte_m_sampled"]
     if args.scene:
         print(f"scene {scene.name} ({args.scene}), engine {engine}, 0-{scene.t_end:g} s, "
               f"steady window {t_from:g}-{scene.t_end:g} s")
@@ -128,11 +168,16 @@ def _simulate(args) -> int:
               f"{engine}, steady window {t_from:g}-{scene.t_end:g} s")
     print(f"  stick ratio          {summ['stick_ratio']:.4f}")
     print(f"  contact-loss ratio   {summ['contact_loss_ratio']:.4f}")
-    print(f"  mesh force (kN)      min {f['min'] / 1e3:.2f}  mean {f['mean'] / 1e3:.2f}  "
-          f"max {f['max'] / 1e3:.2f}")
-    print(f"  DTE (um)             mean {d['mean'] * 1e6:.3f}  peak-to-peak "
+    if "back_contact_ratio" in summ:
+        print(f"  back-contact ratio   {summ['back_contact_ratio']:.4f}")
+    mean = f"mean {f['mean'] / 1e3:.2f}" if "mean" in f else \
+        f"mean of the samples {f['mean_sampled'] / 1e3:.2f}"
+    print(f"  mesh force (kN)      min {f['min'] / 1e3:.2f}  {mean}  max {f['max'] / 1e3:.2f}")
+    print(f"  DTE (um, samples)    mean {d['mean'] * 1e6:.3f}  peak-to-peak "
           f"{d['peak_to_peak'] * 1e6:.3f}")
-    print(f"  wall time            {wall:.2f} s ({wall / scene.t_end:.2f} s per simulated s)")
+    start = "" if startup is None else f"; start-up {startup:.2f} s apart"
+    print(f"  wall time            {wall:.2f} s ({wall / scene.t_end:.3f} s per simulated s"
+          f"{start})")
     for key in ("out", "plot"):
         if key in summ:
             print(f"  written {summ[key]}")
@@ -153,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--plot", help="draw DTE, mesh force, friction and contact state (e.g. "
                    "run.png; needs matplotlib)")
     s.add_argument("--engine", choices=("fast", "reference", "fmu"),
-                   help="default: the scene's [solver] engine; reference without a scene")
+                   help="default: the scene's [solver] engine; fast without a scene")
     s.add_argument("--t-end", type=float, help="simulated time (s); overrides the scene's "
                    "(default 0.2 without a scene)")
     d = _RUN_FLAGS
@@ -198,6 +243,10 @@ def main(argv: list[str] | None = None) -> int:
                 "bench": _bench}[args.cmd](args)
     except ValueError as exc:
         print(f"gearpair: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a path the user gave: missing, unreadable, unwritable
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"gearpair: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
 
 

@@ -147,7 +147,12 @@ def _simulate(args) -> int:
     summ["wall_time_per_simulated_s"] = wall / scene.t_end
     summ["startup_s"] = startup
     if args.out:
-        traj.to_csv(args.out, scene.outputs.names if args.scene else None)
+        from .scenes import OUTPUT_NAMES
+
+        names = scene.outputs.names if args.scene else None
+        if names == OUTPUT_NAMES:  # the default: what this engine recorded (the FMU has less)
+            names = [n for n in names if n in traj.data]
+        traj.to_csv(args.out, names)
         summ["out"] = args.out
     if args.plot:
         try:

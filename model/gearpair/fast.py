@@ -26,55 +26,22 @@ taking a step as `reference.ReferenceEngine`:
 
 Everything on the hot path (`_advance` and what it calls) is ``numba.njit`` on flat
 float64/int64 arrays: no Python objects, no allocation in the right-hand side (the work arrays
-are allocated once per engine). Only this module imports numba; the package works without it.
+are allocated once per engine). Only this module and `jitcache` import numba; the package
+works without it.
 
-Compiled code is cached on disk (``cache=True``). Unless ``NUMBA_CACHE_DIR`` is set, the cache
-lives in a per-user directory (``$XDG_CACHE_HOME/gearpair/numba``, ``~/.cache/gearpair/numba``,
-or ``%LOCALAPPDATA%/gearpair/numba``) keyed by the content of this file rather than its
-location, so a copy of the package extracted to a fresh temporary directory (an FMU
-instantiation) finds the code compiled by an earlier one. If no cache directory can be used,
-the functions are compiled in memory on first use.
+Compiled code is cached on disk, keyed by the content of the engine's source files rather than
+their location (`jitcache`, which also provides the ``jit`` decorators).
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import sys
-import tempfile
 from dataclasses import fields
 
+import numpy as np
 
-def _cache_dir() -> str | None:
-    """A writable directory for numba's cache (NUMBA_CACHE_DIR or a per-user one), or None."""
-    path = os.environ.get("NUMBA_CACHE_DIR")
-    if not path:
-        home = os.path.expanduser("~")
-        if sys.platform.startswith("win"):
-            base = os.environ.get("LOCALAPPDATA") or os.path.join(home, "AppData", "Local")
-        elif sys.platform == "darwin":
-            base = os.path.join(home, "Library", "Caches")
-        else:
-            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(home, ".cache")
-        path = os.path.join(base, "gearpair", "numba")
-    try:
-        os.makedirs(path, exist_ok=True)
-        tempfile.TemporaryFile(dir=path).close()
-    except Exception:  # noqa: BLE001 - any failure means: no disk cache
-        return None
-    return path
-
-
-CACHE_DIR = _cache_dir()
-if CACHE_DIR is not None and "numba" not in sys.modules:
-    os.environ.setdefault("NUMBA_CACHE_DIR", CACHE_DIR)
-
-import numba  # noqa: E402  (after NUMBA_CACHE_DIR is set)
-import numpy as np  # noqa: E402
-
-from .effects import Effects  # noqa: E402
-from .engine import (  # noqa: E402
+from .effects import Effects
+from .engine import (
     CONTACT_BACK,
     CONTACT_SEPARATED,
     CONTACT_SLIP,
@@ -84,76 +51,9 @@ from .engine import (  # noqa: E402
     StepSummary,
     check_inputs,
 )
-from .equations import U2, Model  # noqa: E402
-from .params import GearParams  # noqa: E402
-
-
-def _install_locator() -> bool:
-    """Key the cache of this module's functions by file content, not by directory.
-
-    numba keys a cache directory by the absolute path of the source file, so a package
-    extracted to a new temporary directory would recompile. This locator puts the functions
-    of this file under ``<cache dir>/gearpair_fast_<sha1 of the file and module name>``;
-    numba itself still checks the file's content hash (its source stamp). The module name
-    is part of the key because a cached function names its module, which numba imports on
-    loading it: the FMU's bundled copy (``_gearpair_fmu.fast``) must not load entries of
-    ``gearpair.fast`` and so import a host's package. Returns whether caching can be used.
-    """
-    if CACHE_DIR is None:
-        return False
-    try:
-        from numba.core import caching
-
-        this = os.path.abspath(__file__)
-
-        def content_digest(path: str) -> str:
-            with open(path, "rb") as fh:
-                return hashlib.sha1(fh.read() + numba.__version__.encode()
-                                    + __name__.encode()).hexdigest()[:20]
-
-        digest = content_digest(this)
-        where = os.path.join(CACHE_DIR, "gearpair_fast_" + digest)
-        same: dict[str, bool] = {this: True}  # path -> holds this very file (by content)
-
-        class _ContentLocator(caching.UserProvidedCacheLocator):
-            _gearpair_digest = digest
-
-            def __init__(self, py_func, py_file):
-                super().__init__(py_func, py_file)
-                self._cache_path = where
-
-            @classmethod
-            def from_function(cls, py_func, py_file):
-                # A host that deletes an extracted FMU and loads the next copy from a new
-                # folder imports this file again under another path: match by content.
-                if getattr(py_func, "__module__", None) != __name__:
-                    return None  # another module, or this file under another import name
-                path = os.path.abspath(py_file)
-                if path not in same:
-                    try:
-                        same[path] = os.path.basename(path) == os.path.basename(this) and \
-                            content_digest(path) == digest
-                    except OSError:
-                        same[path] = False
-                if not same[path]:
-                    return None  # other modules keep numba's own locators
-                return super(caching.UserProvidedCacheLocator, cls).from_function(py_func,
-                                                                                 py_file)
-
-        classes = caching.CacheImpl._locator_classes
-        if not any(getattr(c, "_gearpair_digest", None) == digest for c in classes):
-            classes.insert(0, _ContentLocator)
-        return True
-    except Exception:  # noqa: BLE001 - numba internals changed: its default locators remain
-        return bool(numba.config.CACHE_DIR)
-
-
-CACHE = _install_locator()
-jit = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False)
-# Hot helpers are inlined at numba IR level: a call between compiled functions passes every
-# array by value with reference counting, which costs more than the arithmetic here.
-jit_inline = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
-                        _nrt=False)
+from .equations import U2, Model
+from .jitcache import jit, jit_inline
+from .params import GearParams, check_rtol
 
 # -- flat layout of the model data ---------------------------------------------------------
 # float parameters (mp)
@@ -520,8 +420,7 @@ def _evaluate(mp, mi, tx, tk, tdk, s, s_idx, y, torque, speed, act, nact, cs, di
 
 # The right-hand side (6 or 12 calls a Runge-Kutta step) gets its own inlined copy of the
 # contact-state evaluation; the other callers share the compiled function (compile time).
-_evaluate_inl = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
-                           _nrt=False)(_evaluate.py_func)
+_evaluate_inl = jit_inline(_evaluate.py_func)
 
 
 @jit_inline
@@ -638,8 +537,7 @@ def _rhs(mp, mi, tx, tk, tdk, t, s_idx, y, t0, s0, torque, speed, act, nact, cs,
 # The Runge-Kutta stages call the right-hand side 6 or 12 times a step: there it is inlined
 # (with the contact-state evaluation), which saves the by-value passing of some twenty arrays
 # per call; elsewhere the compiled call keeps the kernels small.
-_rhs_stage = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
-                        _nrt=False)(_rhs.py_func)
+_rhs_stage = jit_inline(_rhs.py_func)
 
 
 @jit
@@ -2031,12 +1929,14 @@ class FastEngine(Engine):
         if method not in _METHOD_CODE:
             raise ValueError(f"method = {method!r} is not known; allowed "
                              f"{', '.join(sorted(_METHOD_CODE))}")
-        if not (1e-14 <= rtol <= 1e-2):
-            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        check_rtol(rtol)
         if not (1 <= int(n_samples) <= 1000):
             raise ValueError(f"n_samples = {n_samples!r} is out of range; allowed [1, 1000]")
         m = self.model = Model.build(params, effects)
         fx, st = m.effects, m.stiff
+        if m.mu_static != m.mu or fx.stribeck_velocity is not None:
+            raise ValueError("mu_static (other than mu) and stribeck_velocity are not in the "
+                             "fast engine yet; use engine=\"reference\" (FMU: engine = 1)")
         self.rtol = float(rtol)
         self.atol = _SCALE * rtol if atol is None else np.full(N_Y, float(atol))
         if max_step is None:

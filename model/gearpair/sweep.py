@@ -868,6 +868,11 @@ def main(args) -> int:
     # Check names and the held values here, so a typo fails before a cluster starts.
     settings.inputs("speed_rpm", settings.speed_rpm)
     values = parse_values(args.values)
+    try:  # the output folder before the run, not after it
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out {args.out}: cannot create its folder ({exc.strerror})") \
+            from None
     res = run_sweep(args.param, values, settings, scheduler=args.scheduler,
                     workers=args.workers, retries=args.retries, progress=not args.quiet)
     files = res.write(args.out, plot=not args.no_plot)

@@ -335,6 +335,8 @@ class PlainGearPair:
 
     def record(self, seg, ts, ys) -> None:
         """DTE and mesh force at the grid points of one `solve_ivp` call (first one wins)."""
+        if len(ts) == 0:  # an event came before the first point asked for
+            return
         step = self.grid[1] - self.grid[0] if len(self.grid) > 1 else 1.0
         for t, y in zip(ts, ys.T, strict=True):
             k = int(round(t / step))

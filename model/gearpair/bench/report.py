@@ -104,7 +104,7 @@ def _equal_accuracy(result: dict) -> list[str]:
     for suffix, what in (("", "wall"), ("_cpu", "CPU")):
         key = "wall_per_sim_s" if not suffix else "cpu_per_sim_s"
         out.append(f"Equal accuracy, {what} time: cheapest setting with DTE error <= "
-                   f"{TARGET_ERROR:g}, s/s:")
+                   f"{TARGET_ERROR:g} over the window and over its whole run, s/s:")
 
         def cell(e, mm, key=key, suffix=suffix):
             b = e["best" + suffix].get(mm)

@@ -15,7 +15,6 @@ import pytest
 from gearpair import GearParams
 from gearpair.cli import main
 from gearpair.params import RPM
-from gearpair.results import UNITS
 from gearpair.scenes import (
     OUTPUT_NAMES,
     Constant,
@@ -447,7 +446,7 @@ def test_cli_simulate_scene_json_csv_plot(tmp_path, capsys):
     assert summ["wall_time_per_simulated_s"] == pytest.approx(summ["wall_time_s"] / 0.01)
     names = load_scene(scene).outputs.names
     header = out.read_text().splitlines()[0]
-    assert header == ",".join(f"{n} [{UNITS[n]}]" for n in ("time", *names))
+    assert header == ",".join(("time", *names))  # plain names, units in docs/scenes.md
     assert len(out.read_text().splitlines()) == 1 + 101
     assert png.stat().st_size > 10_000
 
@@ -465,8 +464,9 @@ def test_docs_list_every_key():
     doc = (ROOT / "docs" / "scenes.md").read_text()
     keys = [f.name for f in GearParams.__dataclass_fields__.values()]
     keys += ["pressure_angle_deg", "stiffness", "separation", "friction", "v_eps", "sliding",
-             "stick_tie", "backlash", "dof", "scale_to_mean", "speed_rpm", "static_start",
-             "rtol", "step", "interval", "t_from", "names", "t_end", "columns", "kind"]
+             "stick_tie", "backlash", "dof", "mu_static", "stribeck_velocity",
+             "scale_to_mean", "speed_rpm", "static_start", "rtol", "step", "interval",
+             "t_from", "names", "t_end", "columns", "kind"]
     keys += list(OUTPUT_NAMES)
     missing = [k for k in keys if f"`{k}`" not in doc]
     assert not missing, missing

@@ -53,7 +53,7 @@ from .engine import (
 )
 from .equations import U2, Model
 from .jitcache import jit, jit_inline
-from .params import GearParams
+from .params import GearParams, check_rtol
 
 # -- flat layout of the model data ---------------------------------------------------------
 # float parameters (mp)
@@ -79,8 +79,9 @@ N_PW = 11
 S_DELTA, S_DDELTA, S_KM, S_THETA, S_F, S_QDD, S_COMP = 0, 1, 2, 3, 4, 10, 16
 N_SC = 17
 # continuous engine state (st) and discrete state (ist)
-T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL = range(8)
-N_ST = 8
+# T_SEP: no flank in contact (free flight); T_BACK: on the back flank (contact, not loss)
+T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL, T_BACK = range(9)
+N_ST = 9
 # J_SEP: 0 drive flank, 1 apart, 2 back flank; J_REL: 1 + the pair released at time T_REL
 J_SEP, J_NPREV, J_NEVTOT, J_REL = range(4)
 N_IST = 4
@@ -89,8 +90,10 @@ N_Y = 18  # q, q', 4 energy quadratures (input, damping loss, friction work, par
 Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held per step)
 N_MI = I_IX + N_Y
 # summary of one advance (out)
-O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ = range(6)  # O_NREJ: rejected steps
-N_OUT = 6
+# O_NREJ: rejected steps; O_FINT: time integral of the mesh force over the advance (N s),
+# O_FMIN: its least sample (as O_FMAX the peak)
+O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ, O_FINT, O_FMIN = range(8)
+N_OUT = 8
 STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
 # typical magnitudes for the default absolute tolerance (as the reference)
 _SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
@@ -653,6 +656,11 @@ def _interp(mi, R, nf, theta, out):
 
 
 R_GSAVE, R_GEND = 8, 9  # rows of the work array R: event values at a step's start and end
+R_FSTG = 10  # row of R: the mesh force at each Runge-Kutta stage of the current step
+# Gauss-Legendre nodes and weights on [0, 1] (3 points, exact to degree 5): the mesh force
+# integral over a step cut short by an event, on its continuous extension
+_GL3_X = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
+_GL3_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
 @jit_inline
@@ -787,8 +795,10 @@ def _events_light(mp, mi, tx, tk, tdk, t, yk, t0, s0, torque, speed, act, nact, 
 
 @jit
 def _book(mi, st, sep, stuck, dt):
-    if sep != 0:  # drive flanks apart (free or on the back flank)
+    if sep == 1:  # no flank in contact
         st[T_SEP] += dt
+    elif sep == 2:  # on the back flank: contact, not contact loss
+        st[T_BACK] += dt
     elif _any_stuck(mi, stuck):
         st[T_STICK] += dt
 
@@ -1125,6 +1135,23 @@ def _lti_finish(mp, y, z0, z1, dt, km, cs):
 
 
 @jit_inline
+def _lti_fint(mp, z0, z1, h, km, cs, quiet):
+    """Time integral (N s) of the mesh force km * compression over an exact stretch z0 -> z1
+    of h seconds: the trapezoid with its end-slope correction h^2/12 (f0' - f1') (error
+    h^5 f''''/720; the stretches are at most the sample spacing, a 1/18 of the fastest mode's
+    period). A quiet stretch (`_lti_quiet`: the force stays within rtol of its static value,
+    however long the stretch) takes the plain trapezoid, whose error is below that bound."""
+    if cs == 1:
+        return 0.0
+    trap = 0.5 * h * km * (_comp_of(mp, z0, cs) + _comp_of(mp, z1, cs))
+    if quiet:
+        return trap
+    d0 = z0[7] - z0[10] + z0[8] + z0[11]
+    d1 = z1[7] - z1[10] + z1[8] + z1[11]
+    return trap + h * h / 12.0 * km * (d0 - d1)
+
+
+@jit_inline
 def _mv(P, z, out):
     for i in range(NZ):
         acc = 0.0
@@ -1175,6 +1202,8 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
                         dirs, stuck, pw, sc, Sm, gprev)
     if fm > out[O_FMAX]:
         out[O_FMAX] = fm
+    if fm < out[O_FMIN]:
+        out[O_FMIN] = fm
     if not quiet:
         nsub = max(1, int(math.ceil(htot / mp[P_SPACING] * (1.0 - 1e-12))))
         if nsub > 1:
@@ -1185,12 +1214,14 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
     ks = 0
     while ks < nsub:
         ks += 1
+        jumped = False
         if ks % 256 == 0 and ks < nsub and _lti_quiet(mp, mi, Lm[k], z, cs, W):
             # the transient has died out: one exact step to the end
             kq = _lti_slot(mp, mi, tx, tk, tdk, t0, s0, speed, act, nact, cs, km, tb - t,
                            dirs, stuck, pw, sc, Sm, ytmp, Lv[5], Lm, Lk)
             _mv(Lm[L_NSLOT + kq], z, zn)
             ks = nsub
+            jumped = True
         else:
             _mv(Lm[L_NSLOT + k], z, zn)
         tn = tb if ks == nsub else t0 + ks * hs
@@ -1198,6 +1229,7 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
         if quiet:
             # one step: no event can fall, and the force at the end is the next piece's
             # start or the step's outputs, which the step's peak includes
+            out[O_FINT] += _lti_fint(mp, z, zn, tn - t, km, cs, True)
             for m in range(NZ):
                 z[m] = zn[m]
             t = tn
@@ -1212,6 +1244,9 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
         if not hit:
             if fm > out[O_FMAX]:
                 out[O_FMAX] = fm
+            if fm < out[O_FMIN]:
+                out[O_FMIN] = fm
+            out[O_FINT] += _lti_fint(mp, z, zn, tn - t, km, cs, jumped)
             for m in range(NZ):
                 z[m] = zn[m]
             for e in range(ng):
@@ -1246,6 +1281,7 @@ def _piece_lti(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact, t
             te = t + best_tau
             _expm(Lm[k], best_tau, E, Lm[L_SCRATCH:])
             _mv(E, z, zn)
+        out[O_FINT] += _lti_fint(mp, z, zn, te - t, km, cs, jumped)
         _lti_finish(mp, y, zs, zn, te - t0, km, cs)
         _book(mi, st, cs, stuck, te - t0)
         st[T_S] = s0 + v1 * (te - t0)
@@ -1311,6 +1347,8 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                     stuck, pw, sc, Sm, gprev)
     if fm > out[O_FMAX]:
         out[O_FMAX] = fm
+    if fm < out[O_FMIN]:
+        out[O_FMIN] = fm
     # A known boundary can invalidate a stick at once (the entering pair takes load, so
     # mu f_mesh drops below the static friction): release it before integrating.
     e0 = _n_sep_events(mi, sep)
@@ -1341,6 +1379,7 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
     s_idx = s0 + v1 * 0.5 * min(hguess, t_knot - t, tb - t)
     _rhs(mp, mi, tx, tk, tdk, t0, s_idx, y, t0, s0, torque, speed, act, nact, sep, dirs, stuck,
          pw, sc, Sm, K[0])
+    R[R_FSTG, 0] = sc[S_KM] * sc[S_COMP]
     if not (h > 0.0):
         h = _initial_step(mp, mi, tx, tk, tdk, t0, y, K[0], s0, torque, speed, act, nact, sep,
                           dirs, stuck, pw, sc, Sm, atol, ytmp, ynew, min(tb, t_knot))
@@ -1384,6 +1423,10 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                 ts = tn if c == 1.0 else t + c * hh
                 _rhs_stage(mp, mi, tx, tk, tdk, ts, si, ytmp, t0, s0, torque, speed, act,
                            nact, sep, dirs, stuck, pw, sc, Sm, K[stg])
+                # the mesh force at the stage: its Runge-Kutta quadrature is the force's
+                # integral over the step at the method's order (a quadrature component of y,
+                # without one: it feeds nothing back and takes no part in the error control)
+                R[R_FSTG, stg] = sc[S_KM] * sc[S_COMP]
             for m in range(N_Y):
                 ynew[m] = ytmp[m]
             err = _err_norm(mi, meth, y, ynew, K, hh, atol, rtol)
@@ -1456,6 +1499,8 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
                                        Sm, g)
                 if fm > out[O_FMAX]:
                     out[O_FMAX] = fm
+                if fm < out[O_FMIN]:
+                    out[O_FMIN] = fm
                 for e in range(ng):
                     if gprev[e] > 0.0 and g[e] <= 0.0:
                         hit = True
@@ -1500,6 +1545,16 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             te = t + best_th * hh
             if best_th >= 1.0:
                 te = tn
+            # the force's integral up to the switch: Gauss-Legendre on the continuous
+            # extension (the stage quadrature covers whole steps only)
+            fi = 0.0
+            for gi in range(3):
+                _interp(mi, R, nf, _GL3_X[gi] * best_th, ytmp)
+                fi += _GL3_W[gi] * _events_at(mp, mi, tx, tk, tdk,
+                                              t + _GL3_X[gi] * best_th * hh, ytmp, t0, s0,
+                                              torque, speed, act, nact, sep, dirs, stuck, pw,
+                                              sc, Sm, ynew)
+            out[O_FINT] += fi * (te - t)
             _interp(mi, R, nf, best_th, ytmp)
             for m in range(N_Y):
                 y[m] = ytmp[m]
@@ -1512,6 +1567,11 @@ def _piece(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, act, nact,
             if ist[J_REL] != 0:
                 st[T_REL] = te
             return 1
+        fi = 0.0
+        for j in range(ns - 1):  # the weights b: the last row of A (first same as last)
+            fi += _RK_A[meth, ns - 1, j] * R[R_FSTG, j]
+        out[O_FINT] += hh * fi
+        R[R_FSTG, 0] = R[R_FSTG, ns - 1]
         for m in range(N_Y):
             y[m] = ynew[m]
             K[0, m] = K[ns - 1, m]
@@ -1657,6 +1717,7 @@ def _advance(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act
     for i in range(N_OUT):
         out[i] = 0.0
     out[O_FMAX] = -np.inf
+    out[O_FMIN] = np.inf
     if speed != st[T_SPEED]:
         _speed_change(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, torque,
                       speed, t_end - st[T_T], pw, sc, Sm)
@@ -1772,7 +1833,9 @@ def _outputs_now(mp, mi, tx, tk, tdk, y, st, ist, dirs, stuck, prev_act, act, pw
     o[9] = pw[W_V, i_near] if nact > 0 else 0.0
 
 
-N_REC = N_O + 4  # a recorded row: outputs, stick and separation fractions, peak force, events
+# a recorded row: outputs, stick and separation fractions, peak force, events, back-flank
+# fraction, mean and least mesh force over the interval
+N_REC = N_O + 7
 
 
 @jit
@@ -1790,8 +1853,10 @@ def _run_grid(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_ac
     for m in range(N_O):
         rec[m, 0] = o[m]
     rec[N_O + 2, 0] = o[1]
+    rec[N_O + 5, 0] = o[1]
+    rec[N_O + 6, 0] = o[1]
     for i in range(1, n):
-        t0, stick0, sep0 = st[T_T], st[T_STICK], st[T_SEP]
+        t0, stick0, sep0, back0 = st[T_T], st[T_STICK], st[T_SEP], st[T_BACK]
         y[Y_AD] = yad[i - 1]
         _advance(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_act, act,
                  grid[i], torque[i - 1], speed[i - 1], offs, kcur, K, R, ytmp, ynew, g, gprev,
@@ -1807,6 +1872,9 @@ def _run_grid(mp, mi, atol, tx, tk, tdk, y, st, ist, dirs, stuck, trial, prev_ac
         rec[N_O + 1, i] = (st[T_SEP] - sep0) / h
         rec[N_O + 2, i] = max(out[O_FMAX], o[1])
         rec[N_O + 3, i] = out[O_NEV]
+        rec[N_O + 4, i] = (st[T_BACK] - back0) / h
+        rec[N_O + 5, i] = out[O_FINT] / h
+        rec[N_O + 6, i] = min(out[O_FMIN], o[1])
     return n
 
 
@@ -1849,12 +1917,14 @@ class FastEngine(Engine):
         if method not in _METHOD_CODE:
             raise ValueError(f"method = {method!r} is not known; allowed "
                              f"{', '.join(sorted(_METHOD_CODE))}")
-        if not (1e-14 <= rtol <= 1e-2):
-            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        check_rtol(rtol)
         if not (1 <= int(n_samples) <= 1000):
             raise ValueError(f"n_samples = {n_samples!r} is out of range; allowed [1, 1000]")
         m = self.model = Model.build(params, effects)
         fx, st = m.effects, m.stiff
+        if m.mu_static != m.mu or fx.stribeck_velocity is not None:
+            raise ValueError("mu_static (other than mu) and stribeck_velocity are not in the "
+                             "fast engine yet; use engine=\"reference\" (FMU: engine = 1)")
         self.rtol = float(rtol)
         self.atol = _SCALE * rtol if atol is None else np.full(N_Y, float(atol))
         if max_step is None:
@@ -1931,7 +2001,7 @@ class FastEngine(Engine):
         self._offs = np.zeros(3)
         self._kcur = np.zeros(3, dtype=np.int64)
         self._K = np.zeros((RK_NK, N_Y))
-        self._R = np.zeros((R_GEND + 1, max(N_Y, n + 2)))
+        self._R = np.zeros((R_FSTG + 1, max(N_Y, n + 2, RK_NK)))
         self._ytmp = np.zeros(N_Y)
         self._ynew = np.zeros(N_Y)
         self._g = np.zeros(n + 2)
@@ -1985,7 +2055,8 @@ class FastEngine(Engine):
             "separated": bool(self._ist[J_SEP]), "back": bool(self._ist[J_SEP] == 2),
             "dirs": self._dirs.copy(),
             "stuck": self._stuck.astype(bool), "t_stick": float(self._st[T_STICK]),
-            "t_sep": float(self._st[T_SEP]), "n_events_total": int(self._ist[J_NEVTOT]),
+            "t_sep": float(self._st[T_SEP]), "t_back": float(self._st[T_BACK]),
+            "n_events_total": int(self._ist[J_NEVTOT]),
             "h": float(self._st[T_H]) if self._st[T_H] > 0 else None,
             "prev_active": None if npv < 0 else [int(j) for j in self._prev[:npv]],
             "last": self._last,
@@ -2006,6 +2077,7 @@ class FastEngine(Engine):
         self._dirs[:] = np.asarray(state["dirs"], dtype=float)
         self._stuck[:] = np.asarray(state["stuck"], dtype=bool).astype(np.int64)
         self._st[T_STICK], self._st[T_SEP] = float(state["t_stick"]), float(state["t_sep"])
+        self._st[T_BACK] = float(state.get("t_back", 0.0))
         self._ist[J_NEVTOT] = int(state["n_events_total"])
         h = state.get("h")
         self._st[T_H] = float(h) if h else 0.0
@@ -2047,13 +2119,14 @@ class FastEngine(Engine):
 
         Returns
         -------
-        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps) of the step;
+        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps,
+        back_fraction, mesh_force_mean, mesh_force_min) of the step (`StepSummary`'s order);
         `output_values` then has the outputs.
         """
         t_start = self.time
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
-        t_stick0, t_sep0 = self._st[T_STICK], self._st[T_SEP]
+        t_stick0, t_sep0, t_back0 = self._st[T_STICK], self._st[T_SEP], self._st[T_BACK]
         mp = self._mp
         self._y[Y_AD] = 0.0 if load_speed is None else \
             -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
@@ -2069,7 +2142,9 @@ class FastEngine(Engine):
         o = self.output_values()
         self._last = (t_start, float(t_end))
         return ((self._st[T_STICK] - t_stick0) / h, (self._st[T_SEP] - t_sep0) / h,
-                max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]))
+                max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]),
+                (self._st[T_BACK] - t_back0) / h, float(out[O_FINT]) / h,
+                min(float(out[O_FMIN]), float(o[1])))
 
     def _raise_failure(self) -> None:
         out = self._out
@@ -2096,8 +2171,10 @@ class FastEngine(Engine):
 
         Returns
         -------
-        dict of arrays over ``grid``: the `Outputs` fields and ``stick_fraction``,
-        ``separation_fraction``, ``mesh_force_max``, ``n_events`` (row 0: the start).
+        dict of arrays over ``grid``: the `Outputs` fields and the `StepSummary` figures
+        ``stick_fraction``, ``separation_fraction``, ``back_fraction``, ``mesh_force_mean``,
+        ``mesh_force_min``, ``mesh_force_max``, ``n_events`` of the interval ending there
+        (row 0: the start).
         """
         grid = np.ascontiguousarray(grid, dtype=float)
         n = len(grid)
@@ -2134,7 +2211,8 @@ class FastEngine(Engine):
         data = {k: rec[m] for m, k in enumerate(names)}
         data["contact_state"] = data["contact_state"].astype(int)
         for m, k in enumerate(("stick_fraction", "separation_fraction", "mesh_force_max",
-                               "n_events")):
+                               "n_events", "back_fraction", "mesh_force_mean",
+                               "mesh_force_min")):
             data[k] = rec[N_O + m]
         return data
 
@@ -2187,5 +2265,10 @@ class FastEngine(Engine):
 
     @property
     def separation_time(self) -> float:
-        """Time spent with the teeth apart since reset (s)."""
+        """Time spent with no flank in contact since reset (s)."""
         return float(self._st[T_SEP])
+
+    @property
+    def back_time(self) -> float:
+        """Time spent on the back flank since reset (s)."""
+        return float(self._st[T_BACK])

@@ -111,8 +111,8 @@ class PlainGearPair:
         self.dnominal_dxi = -self.speed * (1.0 + d.ratio)
         self.c0, self.c1, self.c2, self.c3 = (np.ascontiguousarray(d.coef[:, j])
                                               for j in range(4))
-        # y' = A y + b + (mesh spring and friction): A holds q' = q', the supports and the
-        # mesh damper (it acts while the teeth touch), Eqs. (4)-(5)
+        # y' = A y + b + (mesh spring and friction): A holds d q/dt = q', the supports and
+        # the mesh damper (it acts while the teeth touch), Eqs. (4)-(5)
         gg = np.outer(G, G)
         self.a_contact = np.zeros((12, 12))
         self.a_contact[:6, 6:] = np.eye(6)
@@ -188,6 +188,8 @@ class PlainGearPair:
 
     # -- events: positive while the state holds, falling through zero when it ends ----------
     def events(self, seg, state, dirs, stuck):
+        """Terminal event functions of a state: contact (delta) or separation (-delta), then
+        per pair in contact its stick margin (stuck) or d v (slipping in direction d)."""
         evs = []
         if state == "separated":
             evs.append(lambda t, y: -(G @ y[:6]))

@@ -3,8 +3,12 @@
 Thin plumbing over the engine contract in ``gearpair.engine``: parameters and effect switches
 become FMU parameters, ``do_step`` validates the inputs, advances the engine to exactly
 ``currentCommunicationPoint + communicationStepSize`` and copies its outputs. Nothing raises
-out of the slave (pythonfmu would turn any exception into fmi2Fatal): every problem is logged
-with fmi2Error and the step returns False (fmi2Discard) with the state left as it was.
+out of the slave (pythonfmu would turn any exception into fmi2Fatal). A refusal (invalid
+parameters or combination at initialization, a wrong communication point, a state that
+cannot be restored) is logged with status error and changes nothing; the FMU's C layer
+(``fmu_src/c/gearpair_shim.c``) turns a call during which the slave logged an error into
+fmi2Error. A step the integrator cannot complete is logged with status discard and returns
+False (fmi2Discard) with the state of the step start.
 
 The ``gearpair`` package is imported from the FMU's resources folder, where the builder
 (``build_fmu.py``) puts a copy of it, under the private name ``_gearpair_fmu`` (`BUNDLE`),
@@ -107,51 +111,6 @@ _SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
 _VALUE_ORDER = _OUTPUT_FIELDS[:3] + ("contact_state",) + _OUTPUT_FIELDS[3:]  # `_copy_values`
 
 
-_EXIT_GUARDED: set[str] = set()  # binaries whose exit hook `_guard_pythonfmu_exit` set
-
-
-def _guard_pythonfmu_exit(resources: str | None) -> str | None:
-    """Work around a use-after-free at process exit in pythonfmu 0.7's Linux binary.
-
-    The binary holds its interpreter guard in a static ``shared_ptr`` and empties it again
-    from an ELF destructor (``finalizePythonInterpreter``). At exit the C++ runtime destroys
-    the static first (its ``__cxa_atexit`` handler), so the ELF destructor then decrements a
-    reference count inside the freed block. valgrind shows the invalid access on every run;
-    whether glibc notices depends on the heap layout, and then the process aborts after its
-    work is done ("corrupted double-linked list", in libgfortran's exit code).
-
-    In a Python host the guard owns nothing (the host initialised Python), so emptying the
-    static from Python's own exit hook, which runs before any C++ exit handler, turns both
-    later releases into no-ops; instances still alive keep their own reference. A host that
-    is not Python has the guard finalise the interpreter from the guard's own thread, which
-    then runs Python's exit hooks: there the hook must not touch the static, so it is set only
-    when the slave is created on Python's main thread (not the case there: that thread is the
-    guard's). Returns the binary guarded, or None.
-    """
-    import threading
-
-    if not sys.platform.startswith("linux") or not resources or \
-            threading.current_thread() is not threading.main_thread():
-        return None
-    folder = os.path.join(os.path.dirname(os.path.abspath(resources)), "binaries", "linux64")
-    try:
-        import atexit
-        import ctypes
-
-        names = sorted(n for n in os.listdir(folder) if n.endswith(".so"))
-        if len(names) != 1:
-            return None
-        path = os.path.join(folder, names[0])
-        # the copy already loaded by the host (RTLD_NOLOAD: never load a second one)
-        release = ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_LAZY).finalizePythonInterpreter
-    except (OSError, AttributeError, ImportError):
-        return None
-    if path not in _EXIT_GUARDED:
-        _EXIT_GUARDED.add(path)
-        atexit.register(release)
-    return path
-
-
 def _unlist_resources(resources: str | None) -> None:
     """Take the resources folder off ``sys.path`` again.
 
@@ -225,10 +184,10 @@ def interface(gp=None) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
 
     def add(name, typ, causality, variability, unit=None, display_unit=None, lo=None,
-            hi=None, start=None, description=""):
+            hi=None, start=None, description="", lo_open=False):
         out.append(dict(name=name, type=typ, causality=causality, variability=variability,
                         unit=unit, display_unit=display_unit, min=lo, max=hi, start=start,
-                        description=description))
+                        description=description, lo_open=lo_open))
 
     display_in = {"torque": None, "speed": "rpm"}
     for f in fields(params_mod.OperatingPoint):
@@ -250,7 +209,7 @@ def interface(gp=None) -> list[dict[str, Any]]:
             doc += f" (must be > {row['min']:g})"
         add(row["name"], "Integer" if is_int else "Real", "parameter", "fixed",
             None if is_int else row["unit"], _PARAM_DISPLAY_UNIT.get(row["unit"]),
-            row["min"], row["max"], row["default"], doc)
+            row["min"], row["max"], row["default"], doc, lo_open=bool(row.get("lo_open")))
 
     for name in ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
                  "stick_tie", "engine", "backlash", "dof"):
@@ -289,6 +248,23 @@ def interface(gp=None) -> list[dict[str, Any]]:
         "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3; engine 1 "
         "(reference) only for now")
     return out
+
+
+def _combination_error(values) -> str | None:
+    """The first combination of parameters the model refuses, said in the FMU's names and
+    codes (``values`` has the parameters as attributes, codes already in range), or None."""
+    def code(name: str) -> str:
+        c = int(getattr(values, name))
+        return f"{name} = {c} ({CHOICES[name][1][c]})"
+
+    if values.dof == 1 and values.friction_law == 3 and values.sliding == 0:
+        return (f"{code('dof')} with {code('friction_law')} needs sliding = 1 (full): the "
+                "paper's sliding velocity (Eq. (12)) moves only with the support deflections, "
+                "which the torsional model holds still, so no stick could form")
+    if values.backlash > 0.0 and not values.separation:
+        return (f"backlash = {values.backlash:g} m needs separation = true: a back flank "
+                "only matters once the drive flanks can separate")
+    return None
 
 
 class _StateUnpickler(pickle.Unpickler):
@@ -339,7 +315,6 @@ class GearPair(Fmi2Slave):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        _guard_pythonfmu_exit(self.resources)
         _unlist_resources(self.resources)
         self._gp = _import_gearpair(self.resources)
         self._warn_foreign_package()
@@ -367,7 +342,7 @@ class GearPair(Fmi2Slave):
         self._params_set = True  # a parameter was set since the last comparison with the key
         self._start_time = 0.0
         self._stepped = False  # at least one step done since initialization
-        self._poisoned: str | None = None  # set when a state restore failed
+        self._poisoned: str | None = None  # set when a failed step lost the engine state
 
     # -- setup -------------------------------------------------------------------------------
     def _register(self, v: dict) -> None:
@@ -416,6 +391,9 @@ class GearPair(Fmi2Slave):
                 listing = ", ".join(f"{i} ({c})" for i, c in enumerate(codes))
                 raise ValueError(f"{name} = {code!r} is out of range; allowed {listing}")
             choice[field_name] = codes[int(code)]
+        msg = _combination_error(self)
+        if msg is not None:
+            raise ValueError(msg)
         params_mod.check_range("v_eps", self.v_eps, {"unit": "m/s", "min": 1e-9, "max": 1.0})
         params_mod.check_rtol(self.rtol)
         params_mod.check_range("backlash", self.backlash,
@@ -476,7 +454,7 @@ class GearPair(Fmi2Slave):
         try:
             engine = self._build_engine()
         except (ValueError, TypeError, ArithmeticError) as e:
-            return f"invalid parameters: {e}"
+            return f"invalid parameters: {e}"  # names the parameter(s)
         except Exception as e:  # noqa: BLE001 - nothing may escape the slave
             return f"engine construction failed: {type(e).__name__}: {e}"
         self._engine, self._engine_key = engine, key
@@ -533,8 +511,9 @@ class GearPair(Fmi2Slave):
 
     def exit_initialization_mode(self):
         # Outputs at the start time, so a master reading them before the first step sees the
-        # static equilibrium. Errors are reported here and again by the first do_step (which
-        # returns fmi2Discard): this call cannot return an error status without a fatal one.
+        # static equilibrium. A refusal is logged with status error: the C layer returns
+        # fmi2Error and keeps the instance in initialization mode, where the master may
+        # correct a parameter and call fmi2ExitInitializationMode again.
         try:
             msg = self._ensure_engine()
             if msg is None:
@@ -547,7 +526,7 @@ class GearPair(Fmi2Slave):
                 return
         except Exception as e:  # noqa: BLE001
             msg = f"initialization failed: {type(e).__name__}: {e}"
-        self.log(msg, Fmi2Status.error)
+        self.log(f"fmi2ExitInitializationMode refused: {msg}", Fmi2Status.error)
 
     def _check_inputs(self) -> str | None:
         try:
@@ -676,12 +655,11 @@ class GearPair(Fmi2Slave):
         torque, speed = float(self.torque), float(self.speed)
         snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
         saved = snap() if snap is not None else eng.get_state()
-        if self._stepped:
-            tol = 1e-9 * max(1.0, abs(t), h)
-            if abs(t - eng.time) > tol:
-                return self._error(
-                    f"step refused: currentCommunicationPoint = {t!r} s does not match the "
-                    f"FMU's time {eng.time!r} s (restore an FMU state to go back)")
+        now = eng.time if self._stepped else self._start_time  # the first step: startTime
+        if abs(t - now) > 1e-9 * max(1.0, abs(t), h):
+            return self._error(
+                f"step refused: currentCommunicationPoint = {t!r} s does not match the "
+                f"FMU's time {now!r} s (restore an FMU state to go back)")
         try:
             if not self._stepped:
                 eng.reset(t0=t, torque=torque, speed=speed, static=True)
@@ -701,9 +679,13 @@ class GearPair(Fmi2Slave):
             kind = "" if isinstance(e, (ValueError, ArithmeticError)) else \
                 f"{type(e).__name__}: "
             restored = self._restore_engine(saved)
-            return self._error(f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
-                               + ("" if restored else "; the engine state could not be "
-                                  "restored, further steps are refused"))
+            msg = f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
+            if not restored:
+                return self._error(msg + "; the engine state could not be restored, further "
+                                   "steps are refused")
+            # fmi2Discard: the state is that of the step start (lastSuccessfulTime)
+            self.log(msg + "; the state is that of the step start", Fmi2Status.discard)
+            return False
         self._copy_values(values, figures)
         self._stepped = True
         return True
@@ -735,8 +717,8 @@ class GearPair(Fmi2Slave):
 
     def _set_fmu_state(self, state) -> None:
         # Decode and rebuild everything first; touch self only when all succeeded. A failure
-        # cannot return an error status (it would be fatal), so it is logged and every later
-        # step is refused until a good state is set.
+        # is logged with status error (the C layer returns fmi2Error) and leaves the current
+        # state as it was.
         try:
             s = _loads_state(bytes(state), self._gp.__name__)
             values = s["values"]
@@ -759,8 +741,8 @@ class GearPair(Fmi2Slave):
             else:
                 engine, key = None, None
         except Exception as e:  # noqa: BLE001
-            self._poisoned = f"restoring an FMU state failed: {type(e).__name__}: {e}"
-            self.log(self._poisoned, Fmi2Status.error)
+            self.log(f"fmi2SetFMUstate refused: {type(e).__name__}: {e}; the FMU keeps its "
+                     "current state", Fmi2Status.error)
             return
         for n in names:
             setattr(self, n, values[n])

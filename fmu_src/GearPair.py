@@ -469,7 +469,7 @@ class GearPair(Fmi2Slave):
                   o.sliding_velocity)
         if summary is None:
             cs = int(o.contact_state)
-            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs in (0, 3) else 0.0, o.mesh_force, 0)
+            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs == 0 else 0.0, o.mesh_force, 0)
         else:
             figures = (summary.stick_fraction, summary.separation_fraction,
                        summary.mesh_force_max, summary.n_events)

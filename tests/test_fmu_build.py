@@ -450,3 +450,17 @@ def test_corrupt_serialized_state_is_rejected_without_crash(md, unzipdir):
     _, more = g.steps(t, 1e-4, 1)
     assert rows + more == _reference_rows(md, unzipdir, 2)
     g.close()
+
+
+def test_back_flank_contact_at_t0_is_not_counted_as_separation(md, unzipdir):
+    """Before the first step the figures describe the instant t0: a pair pressed on its back
+    flanks (negative torque through the clearance) is in contact, as the engine's
+    ``separation_fraction`` counts it over a step."""
+    g = Instance(md, unzipdir)
+    g.initialize(**FAST, separation=True, backlash=1e-4, torque=-3900.0)
+    out = dict(zip(Instance.OUTPUTS + ("contact_state", "n_events"), g.outputs(), strict=True))
+    assert out["contact_state"] == 3 and out["mesh_force"] < 0.0
+    assert out["separation_fraction"] == 0.0
+    _, rows = g.steps(0.0, 1e-4, 1)
+    assert rows[-1][Instance.OUTPUTS.index("separation_fraction")] == 0.0
+    g.close()

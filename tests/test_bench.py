@@ -143,6 +143,7 @@ def test_c_host_rows(quick):
         for clk in ("", "_cpu"):
             for key in ("c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine"):
                 assert r[f"{key}{clk}_us"] > 0, (key, r)
+            assert np.isfinite(r[f"c_slave_own{clk}_us"]), r
             assert r[f"c_slave_own{clk}_us"] == pytest.approx(
                 r[f"c_gearpair{clk}_us"] - r[f"c_noop{clk}_us"] - r[f"engine{clk}_us"])
             assert r[f"c_beyond_engine{clk}_us"] == pytest.approx(
@@ -153,6 +154,37 @@ def test_c_host_rows(quick):
     text = bench.report(quick)
     assert "C host" in text and "slave's own" in text
     assert any("slave's own work" in t["target"] for t in quick["targets"])
+
+
+@pytest.mark.skipif(not HAS_FMU or shutil.which("gcc") is None, reason="pythonfmu/fmpy/gcc")
+def test_noop_floor_runs_on_the_same_c_layer(tmp_path):
+    import zipfile
+
+    gearpair, noop = bench.build_fmus(tmp_path)
+    libs = {}
+    for fmu, model in ((gearpair, "GearPair"), (noop, "GearPairNoop")):
+        with zipfile.ZipFile(fmu) as z:
+            outer = z.read(f"binaries/linux64/{model}.so")
+            inner = z.read(f"binaries/linux64/{model}_pythonfmu.so")
+        # the FMU's binary is the layer, which loads pythonfmu's library beside it by name
+        assert outer != inner and f"{model}_pythonfmu.so".encode() in outer, model
+        libs[model] = inner
+    # and the library under the layer is the same pythonfmu binary in both
+    assert libs["GearPair"] == libs["GearPairNoop"]
+
+
+def test_startup_rows_say_how_the_code_was_obtained():
+    from gearpair.bench.report import _fmu
+
+    row = {"instantiate_s": 0.1, "initialize_s": 1.0, "first_step_s": 1e-4, "total_s": 1.1}
+    text = "\n".join(_fmu({"settings": {}, "fmu": None,
+                            "startup": {"empty": row, "cached": row, "compile": None}}))
+    assert "empty caches (shipped code)" in text and "warm (cached)" in text
+    assert "compile" not in text
+    compiled = dict(row, total_s=60.0)
+    text = "\n".join(_fmu({"settings": {}, "fmu": None,
+                            "startup": {"empty": row, "cached": row, "compile": compiled}}))
+    assert "GEARPAIR_SHIPPED_CODE=0 (compile)" in text and "60" in text
 
 
 def test_c_host_skipped_with_a_note(monkeypatch, tmp_path):

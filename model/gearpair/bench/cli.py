@@ -30,8 +30,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--memory", action="store_true", help="also measure the peak RSS of a "
                    "100 s run (slow; included in --full)")
     p.add_argument("--no-fmu", action="store_true", help="skip the FMU sections")
-    p.add_argument("--no-startup", action="store_true", help="skip the FMU compile/cached "
-                   "start-up measurement")
+    p.add_argument("--no-startup", action="store_true", help="skip the FMU first-start "
+                   "measurements (empty and warm caches)")
     p.add_argument("--step-horizon", type=float, metavar="S", help="simulated time of the "
                    "1e-3 s step costs (core, FMU, floor); default 1 s (0.02 s with --quick)")
     return p

@@ -67,7 +67,8 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
                 result["c_host"] = host_measurements(s, fmu, noop, Path(tmp) / "host",
                                                      progress)
                 if s.startup:
-                    result["startup"] = fmu_startup(fmu, progress)
+                    result["startup"] = fmu_startup(fmu, progress,
+                                                    compile_row=s.name != "quick")
             except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
                 result["fmu_error"] = f"{type(exc).__name__}: {exc}"
                 progress(f"FMU section failed: {result['fmu_error']}")

@@ -2,8 +2,9 @@
 
 `gearpair bench` copies this script into a temporary folder next to ``interface.json``
 (name, type, causality, start value and description of every variable of the GearPair.fmu
-it just built), builds it with pythonfmu and drives it with exactly the fmpy calls it uses
-on GearPair.fmu. Its cost is the plumbing floor (fmpy, pythonfmu's FMI layer and the call
+it just built), builds it with pythonfmu, gives its binary the same C layer as GearPair.fmu
+(``build_fmu.add_c_layer``) and drives it with exactly the calls it uses on GearPair.fmu.
+Its cost is the plumbing floor (the host, the C layer, pythonfmu's FMI layer and the call
 into Python) that no work in the engine can remove. Without ``interface.json`` it has only
 the two inputs.
 """

@@ -20,9 +20,10 @@ measures in one run, side by side on the same machine:
   fastest scipy method / fast core, on the reference engine and written plainly.
 - **FMU cost** at a 1e-3 s step against the core at the same step (driven as the FMU drives
   it: one ``advance`` + ``outputs`` call per step) and the plumbing floor (the
-  same fmpy call on a pythonfmu slave that does nothing, ``examples/bench_noop``); the cost of
-  one set+doStep+get call; the first instantiation with an empty numba cache (compile)
-  against a warm one.
+  same fmpy call on a pythonfmu slave that does nothing, ``examples/bench_noop``, with the
+  same C layer as GearPair.fmu); the cost of one set+doStep+get call; the first
+  instantiation with empty caches (the FMU's shipped code) against warm ones and, outside
+  ``--quick``, with ``GEARPAIR_SHIPPED_CODE=0`` (compile).
 - **the FMU in a C master** (issue #16): per-step cost of set 2 inputs + doStep + get 4
   outputs at 1e-4 and 1e-3 s steps in ``benchmarks/fmi2_bench_host.c`` beside fmpy's, with
   the no-op slave and the engine's own work, and the first start with empty and warm caches

@@ -117,6 +117,9 @@ def test_parse_values():
     assert parse_values("2:600:300")[:2] == [2.0, 4.0] and len(parse_values("2:600:300")) == 300
     with pytest.raises(ValueError):
         parse_values("1:2")
+    # the CLI prints this message as its one line: it must name the argument, not int()'s text
+    with pytest.raises(ValueError, match=r"values '1:2:x': use start:stop:num"):
+        parse_values("1:2:x")
 
 
 # -- one point ---------------------------------------------------------------------------------

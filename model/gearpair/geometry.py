@@ -203,7 +203,8 @@ def table1_body_mismatch(p: GearParams) -> str | None:
     kept = [k for k in _TABLE1_BODY if getattr(p, k) == getattr(d, k)]
     if not moved or not kept:
         return None
-    return (f"{', '.join(kept)} are Table 1's values, but {', '.join(moved)} differ from "
+    verb = "differs" if len(moved) == 1 else "differ"
+    return (f"{', '.join(kept)} are Table 1's values, but {', '.join(moved)} {verb} from "
             "Table 1's gears (module 6 mm, 33/80 teeth, 0.2 m face width): derive them from "
             "the geometry (gearpair.geometry.steel_body; scenes: [gear] bore_ratio; CLI: "
             "--bore-ratio) or give your own, and tune kr2 to your first mode "

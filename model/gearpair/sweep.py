@@ -767,7 +767,11 @@ def parse_values(text: str) -> list[float]:
         parts = text.split(":")
         if len(parts) != 3:
             raise ValueError(f"values {text!r}: use start:stop:num")
-        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+        try:
+            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+        except ValueError:
+            raise ValueError(f"values {text!r}: use start:stop:num with numbers start, stop "
+                             "and a whole number num, e.g. 2:600:300") from None
         if n < 1:
             raise ValueError(f"values {text!r}: num must be >= 1")
         return [float(v) for v in np.linspace(a, b, n)]

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .jitcache import jit
+from .jitcache import inline_copy, jit, jit_inline
 from .layout import (
     FR_NOMINAL,
     FR_REG,
@@ -73,7 +73,7 @@ from .layout import (
 )
 
 
-@jit
+@jit_inline
 def sgn(x, fallback):
     if x > 0.0:
         return 1.0
@@ -82,7 +82,7 @@ def sgn(x, fallback):
     return fallback
 
 
-@jit
+@jit_inline
 def wrap(x, per):
     """x mod per in [0, per) (numpy's mod for a positive divisor)."""
     r = x - per * math.floor(x * (1.0 / per))
@@ -93,7 +93,7 @@ def wrap(x, per):
     return r
 
 
-@jit
+@jit_inline
 def pair_xi(par, s, j):
     """Position from A of tracked pair j held in contact at mesh travel s (Model.contact)."""
     per, L = par[P_PER], par[P_L]
@@ -108,14 +108,14 @@ def pair_xi(par, s, j):
     return min(max(xi, 0.0), L)
 
 
-@jit
+@jit_inline
 def table_index(md, x):
     """Interval of the (uniform) stiffness table holding position x, clipped to the table."""
     i = int(math.floor(x * md.par[P_INVDX]))
     return min(max(i, 0), md.flag[I_NTAB] - 2)
 
 
-@jit
+@jit_inline
 def pair_k(md, xi, xi_idx, nact):
     """Stiffness of a pair at xi, on the table interval that holds xi_idx (the same one
     over a step, so that a step ending on a knot uses the interval it integrated over)."""
@@ -130,7 +130,7 @@ def pair_k(md, xi, xi_idx, nact):
     return tk[i] + d * md.k_slope[i]
 
 
-@jit
+@jit_inline
 def pair_k_slope(md, xi, xi_idx, nact):
     """The slope d k/d xi of `pair_k` (N/m per m)."""
     if md.flag[I_KIND] == KIND_CONSTANT:
@@ -186,7 +186,7 @@ def solve_small(Sm, n, nrhs):
             Sm[r, k] = acc / Sm[r, r]
 
 
-@jit
+@jit_inline
 def mesh_forces(md, wk, pc, s, s_idx, y):
     """Pair geometry and stiffness, the DTE and the support, mesh and input forces of one
     contact state into ``wk`` (Eqs. (1)-(8)); no friction yet."""
@@ -227,7 +227,7 @@ def mesh_forces(md, wk, pc, s, s_idx, y):
     sc[S_F + 5] += mp[P_KB + 5] * y[Y_A] + mp[P_C + 5] * y[Y_AD]  # load-shaft end
 
 
-@jit
+@jit_inline
 def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
     """Normal forces, sliding velocities (Eqs. (12)-(13)) and the friction of the slipping
     pairs by the friction law; returns the number of stuck pairs (their friction is
@@ -275,7 +275,7 @@ def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
     return ns
 
 
-@jit
+@jit_inline
 def pin_supports(sc):
     """Torsional model: no forces on x1, y1, x2, y2 (rigid supports), which stay at 0."""
     sc[S_F + 0] = 0.0
@@ -366,7 +366,12 @@ def evaluate(md, wk, pc, s, s_idx, y, dirs, stuck):
         sc[S_QDD + m] = md.par[P_MINV + m] * sc[S_F + m]
 
 
-@jit
+# The right-hand side (6 or 12 calls a Runge-Kutta step) gets its own inlined copy of the
+# contact-state evaluation; the other callers share the compiled function (compile time).
+evaluate_inline = inline_copy(evaluate)
+
+
+@jit_inline
 def n_sep_events(md, cs):
     """Number of flank events: 1 (leave/regain contact), 2 apart with a back flank."""
     if md.flag[I_SEP] == 0:
@@ -374,7 +379,7 @@ def n_sep_events(md, cs):
     return 2 if (cs == 1 and md.flag[I_BACK] != 0) else 1
 
 
-@jit
+@jit_inline
 def n_events(md, nact, cs):
     n = n_sep_events(md, cs)
     if md.flag[I_FRIC] == FR_STICK and cs == 0:
@@ -382,7 +387,7 @@ def n_events(md, nact, cs):
     return n
 
 
-@jit
+@jit_inline
 def sep_event_values(md, cs, d, g):
     """Separation events of contact code ``cs`` at DTE ``d`` into g; returns their count."""
     if md.flag[I_SEP] == 0:
@@ -398,7 +403,7 @@ def sep_event_values(md, cs, d, g):
     return n_sep_events(md, cs)
 
 
-@jit
+@jit_inline
 def event_values(md, wk, pc, dirs, g):
     """`switching.event_values` of the evaluated state in ``wk``: positive while it holds."""
     pw = wk.pair
@@ -437,7 +442,7 @@ def rhs(md, wk, pc, hs, t, s_idx, y, dy):
     mp, pw, sc = md.par, wk.pair, wk.scal
     rb1 = mp[P_RB1]
     s = pc.s0 + rb1 * pc.speed * (t - pc.t0)
-    evaluate(md, wk, pc, s, s_idx, y, hs.dirs, hs.stuck)
+    evaluate_inline(md, wk, pc, s, s_idx, y, hs.dirs, hs.stuck)
     for m in range(6):
         dy[m] = y[6 + m]
         dy[6 + m] = sc[S_QDD + m]
@@ -467,6 +472,11 @@ def rhs(md, wk, pc, hs, t, s_idx, y, dy):
         dy[15] = 0.5 * dkm * rb1 * pc.speed * sc[S_COMP] * sc[S_COMP]
     else:
         dy[15] = 0.0
+
+
+# The Runge-Kutta stages call the right-hand side 6 or 12 times a step: there it is inlined
+# (with the contact-state evaluation); elsewhere the compiled call keeps the kernels small.
+rhs_inline = inline_copy(rhs)
 
 
 @jit
@@ -504,7 +514,7 @@ def next_knot_dt(md, s, speed, act, nact):
     return best
 
 
-@jit
+@jit_inline
 def pair_v(md, s, y, speed, j):
     """Sliding velocity of tracked pair j (the arithmetic of `friction_forces`, to the bit)."""
     mp = md.par

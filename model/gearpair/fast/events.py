@@ -22,7 +22,7 @@ from .contact import (
     rhs,
     sep_event_values,
 )
-from .jitcache import jit
+from .jitcache import jit, jit_inline
 from .layout import (
     FR_STICK,
     I_FRIC,
@@ -48,7 +48,7 @@ from .switching import any_stuck, end_piece, switch
 from .tableaux import RK_C, RK_D, RK_ND, RK_NS, RK_NX
 
 
-@jit
+@jit_inline
 def interp(md, R, nf, theta, out):
     """Continuous extension of the accepted step at fraction ``theta``:
     R0 + th (R1 + (1 - th) (R2 + th (R3 + ...))) over rows 1..nf; the components that are
@@ -63,7 +63,7 @@ def interp(md, R, nf, theta, out):
         out[m] = R[0, m] + acc
 
 
-@jit
+@jit_inline
 def hermite(R, y, ynew, K, hh, nfs):
     """Rows 0-3 of the continuous extension (`interp`): alone, the cubic Hermite of the step
     ends (K[0] at the start, K[nfs] at the end); returns its row count."""
@@ -76,7 +76,7 @@ def hermite(R, y, ynew, K, hh, nfs):
     return 3
 
 
-@jit
+@jit_inline
 def dense_rows(md, R, y, ynew, K, hh):
     """Coefficients of the continuous extension of the step y -> ynew (for `interp`): the
     Hermite rows plus rows of D; for DOP853 the extra stages must be in K already
@@ -118,7 +118,7 @@ def events_at(md, wk, pc, hs, t, yk, g):
     return wk.scal[S_KM] * wk.scal[S_COMP]
 
 
-@jit
+@jit_inline
 def events_light(md, wk, pc, hs, t, yk, g):
     """`events_at` where no pair is stuck: the event functions (DTE, slip velocities) and
     the mesh force are then plain expressions of the state, so the forces, the friction and
@@ -141,7 +141,7 @@ def events_light(md, wk, pc, hs, t, yk, g):
     return km * (delta + mp[P_BACK] if sep == 2 else delta)
 
 
-@jit
+@jit_inline
 def illinois_point(a, ga, b, gb):
     """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b)."""
     c = b - gb * (b - a) / (gb - ga)
@@ -150,7 +150,7 @@ def illinois_point(a, ga, b, gb):
     return c
 
 
-@jit
+@jit_inline
 def illinois(a, ga, b, gb, c, gc, side):
     """Shrink the bracket with the value gc at c; halve the stale end's value when the same
     end moves twice (what keeps regula falsi superlinear). Returns a, ga, b, gb, side."""
@@ -163,7 +163,7 @@ def illinois(a, ga, b, gb, c, gc, side):
     return c, gc, b, gb, 1
 
 
-@jit
+@jit_inline
 def falls(wk, ng):
     """Whether an event function fell through zero between ``wk.gprev`` and ``wk.g``."""
     for e in range(ng):
@@ -172,7 +172,7 @@ def falls(wk, ng):
     return False
 
 
-@jit
+@jit_inline
 def prepare_scan(md, wk, pc, hs, sp, nsub):
     """Before sampling a step in ``nsub`` parts: keep the event values at its end (its last
     stage was evaluated there) and build the extension to sample on (DOP853: the cheap
@@ -193,7 +193,7 @@ def prepare_scan(md, wk, pc, hs, sp, nsub):
     return extend(md, wk, pc, hs, sp), False, fm_end
 
 
-@jit
+@jit_inline
 def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
     """Sample the step at ks / nsub on the extension (rows ``nf``); track the peak mesh
     force. Returns (hit, theta of the last sample before the fall, theta of the fall)."""
@@ -224,7 +224,7 @@ def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
     return False, th_prev, 1.0
 
 
-@jit
+@jit_inline
 def scan_step(md, wk, pc, hs, sp):
     """Scan the accepted step for falls through zero, samples at most `spacing` apart.
 

@@ -115,7 +115,14 @@ def _install_locator() -> bool:
 
 
 CACHE = _install_locator()
-# Compiled functions call each other as compiled functions; LLVM inlines the small ones
-# across them. No numba-level inlining (``inline="always"``): it re-types the callee at every
-# call site, which was most of the minute a first compile took.
 jit = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False)
+# Hot helpers are inlined at numba IR level: a call between compiled functions passes every
+# array of its records by value, which costs more than the arithmetic here.
+jit_inline = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
+                        _nrt=False)
+
+
+def inline_copy(func):
+    """An inlined copy of compiled ``func`` for its hot call sites (the others keep calling
+    the compiled function, which keeps their code small)."""
+    return jit_inline(func.py_func)

@@ -28,7 +28,7 @@ from .contact import (
     param_rate,
 )
 from .events import events_at, locate_and_switch, scan_step
-from .jitcache import jit
+from .jitcache import jit, jit_inline
 from .layout import (
     FR_NOMINAL,
     FR_STICK,
@@ -94,7 +94,7 @@ from .switching import end_piece, settle, speed_change, switch
 from .tableaux import RK_NS
 
 
-@jit
+@jit_inline
 def start_checks(md, wk, pc, hs):
     """Events at the start of a piece, and the switches due there; returns 1 after one.
 
@@ -127,7 +127,7 @@ def start_checks(md, wk, pc, hs):
     return 0
 
 
-@jit
+@jit_inline
 def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
     """Take the accepted step ``sp`` (FSAL: its last stage is the next first); at a knot,
     find the next one. Returns (t, t_knot)."""
@@ -206,7 +206,7 @@ def book_pair_change(md, wk, hs, nact):
     y[15] += 0.5 * (sc[S_KM] - km_before) * sc[S_COMP] ** 2
 
 
-@jit
+@jit_inline
 def segment_start(md, wk, hs, tb):
     """The pair set of the segment ending at tb, and what changes with it; returns its size."""
     st = hs.clock
@@ -227,7 +227,7 @@ def segment_start(md, wk, hs, tb):
     return nact
 
 
-@jit
+@jit_inline
 def segment(md, wk, hs, tb):
     """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
     nact = segment_start(md, wk, hs, tb)
@@ -259,7 +259,7 @@ def current_active(md, wk, hs):
     return active_at(md, hs.clock[T_S], wk.active)
 
 
-@jit
+@jit_inline
 def first_boundaries(md, wk, hs):
     """Offsets of the known boundaries in a base pitch (pair entry, pair exit, the pitch
     point for nominal friction) and the index of the next one of each kind ahead of the
@@ -286,7 +286,7 @@ def first_boundaries(md, wk, hs):
     return noff
 
 
-@jit
+@jit_inline
 def next_boundary(md, wk, hs, noff, span, last_b):
     """The end of the next segment: the next known boundary before the end of the step
     (``span``: t and s at the step's start, its end t_end and the travel limit s_lim).
@@ -318,7 +318,7 @@ def next_boundary(md, wk, hs, noff, span, last_b):
     return tb, ib, bb, False
 
 
-@jit
+@jit_inline
 def advance(md, wk, hs, t_end, torque, speed):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
     st, summ = hs.clock, wk.summary
@@ -362,7 +362,7 @@ def eval_now(md, wk, hs):
     return nact
 
 
-@jit
+@jit_inline
 def contact_state(wk, hs, nact):
     """The `Outputs.contact_state` code of the current state."""
     cs = hs.mode[J_SEP]
@@ -409,7 +409,7 @@ def outputs_now(md, wk, hs):
     o[9] = pw[W_V, i_near] if nact > 0 else 0.0
 
 
-@jit
+@jit_inline
 def run_grid(md, wk, hs, grid, torque, speed, yad, rec):
     """`advance` to every point of ``grid`` (inputs of interval i held from grid[i]) and
     record the outputs and step figures there, without a return to Python per point.

@@ -15,7 +15,7 @@ import numpy as np
 
 from .contact import n_events, pair_k, pair_xi, rhs, solve_small
 from .events import events_at, falls, illinois, illinois_point
-from .jitcache import jit
+from .jitcache import jit, jit_inline
 from .layout import (
     I_TORS,
     J_REL,
@@ -53,7 +53,7 @@ PADE6 = np.array([math.factorial(12 - k) * math.factorial(6)
 G_DTE = (0.0, 1.0, 1.0, 0.0, -1.0, 1.0)  # d delta / d q
 
 
-@jit
+@jit_inline
 def matmul(A, B, C):
     """C = A B (NZ x NZ)."""
     for i in range(NZ):
@@ -66,7 +66,7 @@ def matmul(A, B, C):
                     C[i, j] += a * B[k, j]
 
 
-@jit
+@jit_inline
 def matvec(P, z, out):
     for i in range(NZ):
         acc = 0.0
@@ -185,7 +185,7 @@ def expm(A, h, E, S):
             E[i, j] *= d[i] / d[j]
 
 
-@jit
+@jit_inline
 def z_to_y(z, y):
     for m in range(12):
         y[m] = z[m]
@@ -265,7 +265,7 @@ def lti_slot(md, wk, pc, hs, km, h):
     return k_new
 
 
-@jit
+@jit_inline
 def free_index(nf, a):
     """The coordinate of free coordinate a: u1, u2 (torsional) or all six."""
     return (2, 5)[a] if nf == 2 else a
@@ -354,7 +354,7 @@ def lti_quiet(md, A, z, cs, W):
     return comp_p < 0.0 and bound <= -mp[P_RTOL] * comp_p
 
 
-@jit
+@jit_inline
 def comp_of(par, z, cs):
     if cs == 1:
         return 0.0
@@ -362,7 +362,7 @@ def comp_of(par, z, cs):
     return d + par[P_BACK] if cs == 2 else d
 
 
-@jit
+@jit_inline
 def stored_change(par, z0, z1, km, cs):
     """Stored energy at z1 minus at z0 (J): kinetic, supports, load shaft, mesh spring (as
     `energy`), each as k (x1 - x0)(x1 + x0) / 2 so that a small change of a large stored
@@ -471,7 +471,7 @@ def lti_switch(md, wk, pc, hs, lp, t, tn):
     switch(md, wk, pc, hs, best_e, hs.clock[T_S])
 
 
-@jit
+@jit_inline
 def lti_substep(md, wk, pc, hs, lp, ks, t, tb):
     """Sub-step ks (1-based) from t: zn = lti_vecs[1] <- its exact step (every 256 the
     rest in one when the transient has died out). Returns (ks, end of the sub-step)."""
@@ -489,7 +489,7 @@ def lti_substep(md, wk, pc, hs, lp, ks, t, tb):
     return ks, tn
 
 
-@jit
+@jit_inline
 def lti_march(md, wk, pc, hs, lp, tb):
     """The sub-steps of a piece, each scanned for falls at its end; returns 1 after a
     switch, 0 on reaching tb."""
@@ -519,7 +519,7 @@ def lti_march(md, wk, pc, hs, lp, tb):
     return 0
 
 
-@jit
+@jit_inline
 def piece_lti(md, wk, pc, hs, tb):
     """`piece` for constant coefficients: exact steps z <- expm(A h) z. A quiet piece
     (`lti_quiet`) is one step; otherwise steps of at most the sample spacing are scanned for

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import math
 
-from .contact import next_knot_dt, rhs
-from .jitcache import jit
+from .contact import next_knot_dt, rhs, rhs_inline
+from .jitcache import jit, jit_inline
 from .layout import (
     I_IX,
     I_METHOD,
@@ -29,7 +29,7 @@ from .tableaux import M_DOP853, RK_A, RK_C, RK_E, RK_E3, RK_NS, RK_Q
 EPS = 2.220446049250313e-16
 
 
-@jit
+@jit_inline
 def stage(meth, stg, y, K, hh, ytmp):
     """ytmp = y + hh sum_j a[stg, j] K[j] (zero couplings skipped: DOP853 has many)."""
     for m in range(N_Y):
@@ -43,7 +43,7 @@ def stage(meth, stg, y, K, hh, ytmp):
         ytmp[m] = y[m] + hh * ytmp[m]
 
 
-@jit
+@jit_inline
 def err_norm(md, yold, ynew, K, hh):
     """Weighted RMS norm of the local error estimate (DOP853: Hairer's blend of its 5th- and
     3rd-order estimates, which keeps the step from growing where the 5th-order one vanishes
@@ -110,7 +110,7 @@ def initial_step(md, wk, pc, hs, f0, t_lim):
     return min(100.0 * h0, h1, mp[P_MAXSTEP])
 
 
-@jit
+@jit_inline
 def first_step(md, wk, pc, hs, tb):
     """Start the steps of a piece: the first stage at its start, the step size (the last
     one, else `initial_step`) and the next knot. Returns (h, t_knot)."""
@@ -128,7 +128,7 @@ def first_step(md, wk, pc, hs, tb):
     return h, t_knot
 
 
-@jit
+@jit_inline
 def step_error(md, wk, pc, hs, sp):
     """The stages of step ``sp`` (the new point into ``wk.ynew``) and its error norm."""
     meth = md.flag[I_METHOD]
@@ -137,7 +137,7 @@ def step_error(md, wk, pc, hs, sp):
         stage(meth, stg, y, K, hh, ytmp)
         c = RK_C[meth, stg]
         ts = sp.tn if c == 1.0 else t + c * hh
-        rhs(md, wk, pc, hs, ts, sp.si, ytmp, K[stg])
+        rhs_inline(md, wk, pc, hs, ts, sp.si, ytmp, K[stg])
     for m in range(N_Y):
         wk.ynew[m] = ytmp[m]
     err = err_norm(md, y, wk.ynew, K, hh)
@@ -146,7 +146,7 @@ def step_error(md, wk, pc, hs, sp):
     return err
 
 
-@jit
+@jit_inline
 def next_h(md, err, h, sp, rejected):
     """Step size after an attempt with error norm ``err`` (accepted if err <= 1)."""
     expo = -1.0 / RK_Q[md.flag[I_METHOD]]
@@ -169,7 +169,7 @@ def next_h(md, err, h, sp, rejected):
     return hh * max(0.2, 0.8 * err ** expo)
 
 
-@jit
+@jit_inline
 def plan_step(md, pc, t, h, t_knot, tb):
     """The next step from t: size, end, and whether it ends the piece or on a knot."""
     v1 = md.par[P_RB1] * pc.speed
@@ -190,7 +190,7 @@ def plan_step(md, pc, t, h, t_knot, tb):
     return Step(t, hh, tn, si, last, at_knot)
 
 
-@jit
+@jit_inline
 def try_step(md, wk, pc, hs, t, h, t_knot, tb):
     """Attempt steps from t until one passes the error test.
 

@@ -5,7 +5,7 @@ of the time spent in stick and apart."""
 from __future__ import annotations
 
 from .contact import evaluate, n_sep_events, pair_v, sgn
-from .jitcache import jit
+from .jitcache import jit, jit_inline
 from .layout import (
     FR_STICK,
     I_FRIC,
@@ -34,7 +34,7 @@ from .layout import (
 )
 
 
-@jit
+@jit_inline
 def any_stuck(md, stuck):
     for j in range(md.flag[I_NP]):
         if stuck[j] != 0:
@@ -124,7 +124,7 @@ def switch(md, wk, pc, hs, label, s):
         dirs[j] = sgn(lam_e, 1.0)
 
 
-@jit
+@jit_inline
 def kinetic(par, y):
     """Kinetic energy 0.5 q'^T M q' (J)."""
     e = 0.0

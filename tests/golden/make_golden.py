@@ -38,10 +38,11 @@ from gearpair.engine import Outputs  # noqa: E402
 from gearpair.geometry import Geometry  # noqa: E402
 
 OUT_FIELDS = tuple(f.name for f in fields(Outputs) if f.name != "time")
-STEP_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max", "n_events",
-               "n_steps", "rejected_steps")
-STATE_SCALARS = ("t", "s", "torque", "speed", "t_stick", "t_sep", "n_events_total", "h",
-                 "separated", "back")
+GRID_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max", "n_events",
+               "back_fraction", "mesh_force_mean", "mesh_force_min")
+STEP_FIELDS = GRID_FIELDS + ("n_steps", "rejected_steps")
+STATE_SCALARS = ("t", "s", "torque", "speed", "t_stick", "t_sep", "t_back", "n_events_total",
+                 "h", "separated", "back")
 ENERGY_KEYS = ("stored", "input", "damping", "friction", "parametric")
 TR = 3900.0   # N.m
 W10 = 10.0    # rad/s
@@ -251,7 +252,7 @@ def run_case(case: GoldenCase) -> dict[str, np.ndarray]:
     if case.driver == "grid":
         grid = np.r_[eng.time, s[:, 0]]
         rec = eng.run_grid(grid, s[:, 1], s[:, 2])
-        for m, k in enumerate(OUT_FIELDS + STEP_FIELDS[:4]):
+        for m, k in enumerate(OUT_FIELDS + GRID_FIELDS):
             rows[:, m] = rec[k][1:]
     else:
         try:
@@ -259,9 +260,8 @@ def run_case(case: GoldenCase) -> dict[str, np.ndarray]:
                 summ = eng.advance(te, T, W, None if math.isnan(L) else L)
                 o = eng.outputs()
                 rows[i, :len(OUT_FIELDS)] = [getattr(o, k) for k in OUT_FIELDS]
-                rows[i, len(OUT_FIELDS):] = [summ.stick_fraction, summ.separation_fraction,
-                                             summ.mesh_force_max, summ.n_events,
-                                             summ.n_steps, eng.rejected_steps]
+                rows[i, len(OUT_FIELDS):] = [getattr(summ, k) for k in GRID_FIELDS] + [
+                    summ.n_steps, eng.rejected_steps]
         except (RuntimeError, ArithmeticError):
             error = 1.0
     return {"steps": s, "rows": rows, "error": np.array([error]), **_state_arrays(eng)}

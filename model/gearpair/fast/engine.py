@@ -307,14 +307,6 @@ class FastEngine(Engine):
         self._o_fresh = False  # wk.outputs holds the outputs of the current state
         self.reset()
 
-    @property
-    def _mp(self) -> np.ndarray:
-        return self._md.par
-
-    @property
-    def _mi(self) -> np.ndarray:
-        return self._md.flag
-
     # -- contract ----------------------------------------------------------------------------
     @property
     def time(self) -> float:

@@ -60,6 +60,8 @@ CHOICE_DOCS = {
     "(torsional; with friction_law 3 it needs sliding 1)",
 }
 BACKLASH_MAX = 1e-3  # m, as gearpair.effects.BACKLASH_MAX
+MU_STATIC_MAX = 1.0  # as gearpair.effects.MU_STATIC_MAX
+STRIBECK_MAX = 1.0  # m/s, as gearpair.effects.STRIBECK_MAX
 
 # Display units chosen for parameters by their unit.
 _PARAM_DISPLAY_UNIT = {"rad": "deg", "m": "mm"}
@@ -275,6 +277,16 @@ def interface(gp=None) -> list[dict[str, Any]]:
         "rotation (the paper)")
     add("rtol", "Real", "parameter", "fixed", "1", None, 1e-12, 1e-3, 1e-8,
         "relative tolerance of the engine's integrator")
+    # Appended after rtol so the value references of the earlier variables stay as they were.
+    add("mu_static", "Real", "parameter", "fixed", "1", None, 0.0, MU_STATIC_MAX, 0.0,
+        "static friction coefficient bounding the static friction in the stick test of "
+        "Eq. (14) (mu stays the kinetic coefficient); 0: equal to mu (the paper); otherwise "
+        "it must be >= mu, with friction_law 3 (stick_slip), or 2 (regularized) together with "
+        "stribeck_velocity; engine 1 (reference) only for now")
+    add("stribeck_velocity", "Real", "parameter", "fixed", "m/s", None, 0.0, STRIBECK_MAX, 0.0,
+        "Stribeck velocity v_s: the sliding coefficient is mu + (mu_static - mu) "
+        "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3; engine 1 "
+        "(reference) only for now")
     return out
 
 
@@ -400,11 +412,20 @@ class GearPair(Fmi2Slave):
         params_mod.check_range("rtol", self.rtol, {"unit": "", "min": 1e-12, "max": 1e-3})
         params_mod.check_range("backlash", self.backlash,
                                {"unit": "m", "min": 0.0, "max": BACKLASH_MAX})
+        params_mod.check_range("mu_static", self.mu_static,
+                               {"unit": "", "min": 0.0, "max": MU_STATIC_MAX})
+        params_mod.check_range("stribeck_velocity", self.stribeck_velocity,
+                               {"unit": "m/s", "min": 0.0, "max": STRIBECK_MAX})
         engine = choice.pop("engine")
+        # 0 encodes "not given" (mu_static = mu, no Stribeck decay); the combination checks
+        # (mu_static >= mu, the friction law, the engine) raise ValueError from the package
         effects = effects_mod.Effects(
             stiffness=effects_mod.StiffnessSpec(kind=choice.pop("stiffness")),
             separation=bool(self.separation), v_eps=float(self.v_eps),
-            backlash=float(self.backlash) if self.backlash > 0.0 else None, **choice)
+            backlash=float(self.backlash) if self.backlash > 0.0 else None,
+            mu_static=float(self.mu_static) if self.mu_static > 0.0 else None,
+            stribeck_velocity=float(self.stribeck_velocity) if self.stribeck_velocity > 0.0
+            else None, **choice)
         make = getattr(gp, "make_engine", None)
         if make is not None:
             if engine == "fast":

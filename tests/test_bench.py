@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import shutil
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -16,7 +18,9 @@ import pytest
 from gearpair import bench, cli
 
 HAS_FMU = all(importlib.util.find_spec(m) is not None for m in ("pythonfmu", "fmpy"))
-ENGINE_METHODS = ("fast", "fast (step 0.001)", "fast dp5", *bench.SCIPY_METHODS)
+PLAIN_METHODS = tuple(bench.PLAIN_PREFIX + m for m, _ in bench.QUICK.plain_rtols)
+ENGINE_METHODS = ("fast", "fast (step 0.001)", "fast dp5", *bench.SCIPY_METHODS,
+                  *PLAIN_METHODS)
 
 
 @pytest.fixture(scope="module")
@@ -54,6 +58,30 @@ def test_every_method_and_regime_has_a_row(quick):
     for e in quick["equal_accuracy"]:
         assert set(e["best"]) >= set(ENGINE_METHODS)
         assert set(e["best_cpu"]) == set(e["best"])
+        # both leads of the fast core: over scipy on the reference engine and over plain scipy
+        assert e["fastest_scipy"] in bench.SCIPY_METHODS, e
+        assert e["fastest_plain"] in PLAIN_METHODS, e
+        for key in ("ratio", "ratio_plain", "ratio_cpu", "ratio_plain_cpu"):
+            assert e[key] > 0, (key, e)
+    assert quick["plain_scipy"]["note"] is None
+
+
+def test_plain_scipy_is_cross_checked_against_the_reference(quick):
+    checks = {c["engine"]: c for c in quick["reference"]["cross_check"]
+              if c["regime"] == "stick_slip"}
+    assert set(checks) == {"reference DOP853", "plain DOP853"}
+    plain = checks["plain DOP853"]
+    assert plain["horizon_s"] == bench.QUICK.window("stick_slip")
+    assert plain["diff_dte"] < 1e-9 and plain["diff_force"] < 1e-9, plain
+
+
+def test_plain_rows_skipped_with_a_note_without_the_repository(monkeypatch, tmp_path):
+    from gearpair.bench import plain
+
+    monkeypatch.setattr(plain, "PLAIN_SCRIPT", tmp_path / "plain_scipy.py")
+    monkeypatch.delitem(sys.modules, plain._MODULE, raising=False)
+    rows, checks, note = plain.plain_rows(bench.QUICK, {})
+    assert rows == [] and checks == [] and "benchmarks/" in note
 
 
 @pytest.mark.parametrize("method", ["fast", "fast dp5"])
@@ -100,6 +128,42 @@ def test_step_costs_fmu_and_calls(quick):
         assert calls[key + "_s"] > 0 and calls[key + "_cpu_s"] > 0
 
 
+def test_c_host_rows(quick):
+    if not HAS_FMU:
+        pytest.skip("pythonfmu/fmpy missing")
+    ch = quick["c_host"]
+    if shutil.which("gcc") is None:
+        assert "gcc" in ch["note"] and not ch["steps"]
+        return
+    assert ch["note"] is None, ch["note"]
+    assert ch["inputs"] == ["torque", "speed"] and len(ch["outputs"]) == 4
+    assert [r["step"] for r in ch["steps"]] == [1e-4, 1e-3]
+    for r in ch["steps"]:
+        assert r["error"] is None, r
+        for clk in ("", "_cpu"):
+            for key in ("c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine"):
+                assert r[f"{key}{clk}_us"] > 0, (key, r)
+            assert r[f"c_slave_own{clk}_us"] == pytest.approx(
+                r[f"c_gearpair{clk}_us"] - r[f"c_noop{clk}_us"] - r[f"engine{clk}_us"])
+        assert r["c_per_sim_s"] == pytest.approx(r["c_gearpair_us"] * 1e-6 / r["step"])
+        # the no-op slave exits cleanly; GearPair's exit status is reported, not required
+        assert r["exit_status"]["noop"] == 0 and "gearpair" in r["exit_status"]
+    text = bench.report(quick)
+    assert "C host" in text and "slave's own" in text
+    assert any("slave's own work" in t["target"] for t in quick["targets"])
+
+
+def test_c_host_skipped_with_a_note(monkeypatch, tmp_path):
+    from gearpair.bench import chost
+
+    monkeypatch.setattr(chost, "HOST_SOURCE", tmp_path / "fmi2_bench_host.c")
+    host, note = chost.build_host(tmp_path)
+    assert host is None and "benchmarks/" in note
+    monkeypatch.setattr(chost.shutil, "which", lambda name: None)
+    assert "gcc" in chost.build_host(tmp_path)[1]
+    assert chost.exit_note(0) == "0" and chost.exit_note(-11) == "SIGSEGV at exit"
+
+
 def test_cost_table_covers_scenes_and_ladder(quick):
     cost = quick["cost"]
     shipped = {p.stem for p in bench.SCENES_DIR.glob("*.toml")}
@@ -115,7 +179,7 @@ def test_cost_table_covers_scenes_and_ladder(quick):
 
 def test_report_json_and_targets(quick):
     text = bench.report(quick)
-    for word in (*bench.REGIMES, "Equal accuracy", "Effect ladder", "Targets",
+    for word in (*bench.REGIMES, "Equal accuracy", "Effect ladder", "Targets", "plain scipy",
                  quick["machine"]["cpu"]):
         assert word in text
     back = json.loads(json.dumps(bench.jsonable(quick), allow_nan=False))
@@ -124,6 +188,7 @@ def test_report_json_and_targets(quick):
     assert bench.jsonable(odd) == {"a": [None, 2, [1.5]]}
     kinds = " ".join(t["target"] for t in quick["targets"])
     assert "scipy" in kinds and "stick-slip" in kinds and "ladder" in kinds
+    assert "plain scipy" in kinds and "reference engine" in kinds
 
 
 def test_plot(quick, tmp_path):

@@ -34,7 +34,7 @@ def functions(package: Path = PACKAGE) -> list[tuple[str, int, int]]:
 
 def test_the_package_has_its_modules():
     names = {p.stem for p in PACKAGE.glob("*.py")}
-    assert {"__init__", "layout", "jitcache", "contact", "switching", "tableaux", "rk",
+    assert {"__init__", "layout", "contact", "switching", "tableaux", "rk",
             "events", "lti", "loop", "engine"} <= names
 
 

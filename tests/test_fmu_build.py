@@ -262,6 +262,12 @@ def test_bad_communication_point_and_step_size_are_refused(md, unzipdir):
     ({"friction_law": 7}, ("friction_law", "3 (stick_slip)")),
     ({"rtol": 0.5}, ("rtol", "0.001")),
     ({"z1": 5}, ("z1", "[12, 400]")),
+    ({"mu_static": 1.5}, ("mu_static", "[0, 1]")),
+    ({"stribeck_velocity": -0.1}, ("stribeck_velocity", "[0, 1] m/s")),
+    # combinations: below the kinetic mu, a law without static friction, the fast engine
+    ({"mu_static": 0.01}, ("mu_static", "[mu, 1] = [0.02, 1]")),
+    ({"mu_static": 0.04, "friction_law": 1, "engine": 1}, ("mu_static", "'nominal'")),
+    ({"mu_static": 0.04}, ("mu_static", "FMU: engine = 1")),
 ])
 def test_out_of_range_parameter_is_refused(md, unzipdir, start, words):
     g = Instance(md, unzipdir)
@@ -285,6 +291,32 @@ def test_out_of_range_parameter_via_simulate_fmu(fmu_path):
                             start_values={"kb1": 1e20}, logger=logger, debug_logging=True)
     assert res["time"][-1] == 0.0 and all(res["mesh_force"] == 0.0)  # no step was taken
     assert any("kb1" in m and "out of range" in m for m in messages)
+
+
+def test_static_friction_parameters_run_the_reference_engine(md, unzipdir):
+    """mu_static and stribeck_velocity reach the engine: the FMU's steps equal the reference
+    engine's bit for bit; their start value 0 means "equal to mu" and "off"."""
+    v = {x.name: x for x in md.modelVariables}
+    for name, unit in (("mu_static", "1"), ("stribeck_velocity", "m/s")):
+        assert (v[name].unit, float(v[name].min), float(v[name].max), float(v[name].start)) \
+            == (unit, 0.0, 1.0, 0.0)
+        assert v[name].causality == "parameter" and v[name].variability == "fixed"
+    assert "0: equal to mu" in v["mu_static"].description
+    g = Instance(md, unzipdir)
+    g.initialize(**FAST, engine=1, mu_static=0.04, stribeck_velocity=0.01)
+    _, rows = g.steps(0.0, 1e-3, 5)
+    assert not any(s >= fmi2Error for s, _ in g.messages), g.messages
+    g.close()
+    from gearpair import Effects, GearParams, make_engine
+
+    eng = make_engine(GearParams(), Effects(mu_static=0.04, stribeck_velocity=0.01),
+                      "reference", rtol=1e-6)
+    eng.reset(0.0, 3900.0, 100 * RPM)
+    for i, row in enumerate(rows):
+        s = eng.advance((i + 1) * 1e-3, 3900.0, 100 * RPM)
+        o = eng.outputs()
+        assert row[:3] == (o.dte, o.mesh_force, o.friction_force)
+        assert row[8] == s.stick_fraction
 
 
 def test_get_set_fmu_state_round_trip(md, unzipdir):

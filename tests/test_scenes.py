@@ -465,8 +465,9 @@ def test_docs_list_every_key():
     doc = (ROOT / "docs" / "scenes.md").read_text()
     keys = [f.name for f in GearParams.__dataclass_fields__.values()]
     keys += ["pressure_angle_deg", "stiffness", "separation", "friction", "v_eps", "sliding",
-             "stick_tie", "backlash", "dof", "scale_to_mean", "speed_rpm", "static_start",
-             "rtol", "step", "interval", "t_from", "names", "t_end", "columns", "kind"]
+             "stick_tie", "backlash", "dof", "mu_static", "stribeck_velocity",
+             "scale_to_mean", "speed_rpm", "static_start", "rtol", "step", "interval",
+             "t_from", "names", "t_end", "columns", "kind"]
     keys += list(OUTPUT_NAMES)
     missing = [k for k in keys if f"`{k}`" not in doc]
     assert not missing, missing

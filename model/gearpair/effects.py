@@ -23,6 +23,8 @@ _SLIDING = ("paper", "full")
 _TIE = ("exact", "paper")
 _DOF = ("full", "torsional")
 BACKLASH_MAX = 1e-3  # m; a clearance beyond a millimetre is a broken gearbox, not a scene
+MU_STATIC_MAX = 1.0  # as GearParams.mu
+STRIBECK_MAX = 1.0  # m/s; sliding velocities of this gear stay below about 1 m/s at 600 r/min
 
 
 def _one_of(name: str, value: str, allowed: tuple[str, ...]) -> None:
@@ -102,6 +104,20 @@ class Effects:
     dof : {"full", "torsional"}
         ``full``: the 6-DOF model of Eq. (5). ``torsional``: rigid supports, only u1 and u2
         are integrated (x1 = y1 = x2 = y2 = 0); friction then acts through its moments only.
+    mu_static : float or None
+        Static friction coefficient (beyond the paper, whose single ``mu`` is both): bounds
+        the static friction in the stick test of Eq. (14), ``|f_static| <= mu_static f_mesh``,
+        while ``GearParams.mu`` stays the kinetic coefficient of the sliding friction.
+        ``None``: equal to ``mu`` (the paper). Allowed [0, 1]; it must be >= ``mu`` (checked
+        with the gear data by `equations.Model.build`). Used by ``stick_slip``, and by
+        ``regularized`` through the Stribeck curve; ``off`` and ``nominal`` have no static
+        state and refuse a value other than ``mu``.
+    stribeck_velocity : float or None
+        Stribeck velocity v_s (m/s): the sliding coefficient falls from ``mu_static`` at
+        v = 0 to ``mu`` as ``mu + (mu_static - mu) exp(-(|v|/v_s)^2)``
+        (`equations.sliding_coefficient`). ``None`` or 0: off (sliding at ``mu`` whatever
+        the speed). Allowed (0, 1] m/s, with ``friction`` ``stick_slip`` or ``regularized``
+        (the laws that see the sliding velocity).
     """
 
     stiffness: StiffnessSpec = field(default_factory=StiffnessSpec)
@@ -112,6 +128,8 @@ class Effects:
     stick_tie: StickTie = "exact"
     backlash: float | None = None
     dof: Dof = "full"
+    mu_static: float | None = None
+    stribeck_velocity: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.stiffness, str):  # convenience: Effects(stiffness="constant")
@@ -139,6 +157,27 @@ class Effects:
             if not self.separation:
                 raise ValueError("backlash needs separation = true (a back flank only matters "
                                  "once the drive flanks can separate)")
+        self._check_static_friction()
+
+    def _check_static_friction(self) -> None:
+        ms = self.mu_static
+        if ms is not None and (isinstance(ms, bool) or not isinstance(ms, (int, float))
+                               or not math.isfinite(ms) or not 0.0 <= ms <= MU_STATIC_MAX):
+            raise ValueError(f"mu_static = {ms!r} is out of range; allowed [0, {MU_STATIC_MAX:g}]"
+                             " (and >= mu), or None for mu_static = mu")
+        vs = self.stribeck_velocity
+        if vs is None:
+            return
+        if isinstance(vs, bool) or not isinstance(vs, (int, float)) or not math.isfinite(vs) \
+                or not 0.0 <= vs <= STRIBECK_MAX:
+            raise ValueError(f"stribeck_velocity = {vs!r} is out of range; allowed (0, "
+                             f"{STRIBECK_MAX:g}] m/s, or 0 or None for no Stribeck decay")
+        if vs == 0.0:  # 0 means off, as None: one representation, so equal effects compare equal
+            object.__setattr__(self, "stribeck_velocity", None)
+            return
+        if self.friction not in ("stick_slip", "regularized"):
+            raise ValueError(f"stribeck_velocity needs friction = 'stick_slip' or 'regularized' "
+                             f"(friction = {self.friction!r} does not see the sliding velocity)")
 
 
 FRICTION_LAWS = _FRICTION

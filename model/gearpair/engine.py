@@ -62,12 +62,21 @@ class StepSummary:
     Attributes
     ----------
     t_start, t_end : s
-    stick_fraction, separation_fraction : fraction (0..1) of the step spent in stick / apart,
-        from the located switching instants (exact, not sampled)
+    stick_fraction, separation_fraction : fraction (0..1) of the step spent in stick / with
+        no flank in contact (contact loss), from the located switching instants (exact, not
+        sampled)
     mesh_force_max : N, peak elastic mesh force in the step (over the solver's steps and
         dense-output samples)
     n_events : number of state switches located in the step
     n_steps : number of internal integrator steps
+    back_fraction : fraction (0..1) of the step on the back flank (contact under a negative
+        torque with `Effects.backlash`, `contact_state` 3), exact as the others
+    mesh_force_mean : N, time mean of the elastic mesh force over the step: its integral
+        over every integrator step (the Runge-Kutta quadrature of the stage values, Gauss
+        points on the continuous extension up to a switch; the exact propagator's own
+        stretches by the slope-corrected trapezoid), divided by the step length
+    mesh_force_min : N, least elastic mesh force in the step (the samples of
+        ``mesh_force_max``)
     """
 
     t_start: float
@@ -77,6 +86,9 @@ class StepSummary:
     mesh_force_max: float
     n_events: int
     n_steps: int
+    back_fraction: float = 0.0
+    mesh_force_mean: float = math.nan
+    mesh_force_min: float = math.nan
 
 
 class Engine(ABC):

@@ -51,12 +51,17 @@ class Model:
     rb2: float
     ratio: float
     cm: float
-    mu: float
+    mu: float               # kinetic coefficient, GearParams.mu
+    mu_static: float        # static coefficient of the stick test, Eq. (14) (mu if not given)
+    stribeck_velocity: float  # v_s of the sliding coefficient (m/s); 0: no Stribeck decay
 
     @classmethod
     def build(cls, p: GearParams | None = None, effects: Effects | None = None) -> Model:
+        """The model of gear data ``p`` with ``effects``. Raises ValueError when the
+        friction coefficients do not fit together (`check_friction_coefficients`)."""
         p = p or GearParams()
         effects = effects or Effects()
+        mu_static = check_friction_coefficients(p, effects)
         geom = Geometry.from_params(p)
         stiff = MeshStiffness.build(p, geom, effects.stiffness)
         mdiag = np.array([p.m1, p.m1, p.mu1, p.m2, p.m2, p.mu2])
@@ -64,7 +69,8 @@ class Model:
         Kb = np.diag([p.kb1, p.kb1, p.kr1, p.kb2, p.kb2, p.kr2])
         C = np.diag([p.cb1, p.cb1, p.cr1, p.cb2, p.cb2, p.cr2])
         return cls(p, effects, geom, stiff, M, C, Kb, 1.0 / mdiag, np.diag(C).copy(),
-                   np.diag(Kb).copy(), p.rb1, p.rb2, p.ratio, p.cm, p.mu)
+                   np.diag(Kb).copy(), p.rb1, p.rb2, p.ratio, p.cm, p.mu, mu_static,
+                   float(effects.stribeck_velocity or 0.0))
 
     @property
     def backlash(self) -> float:
@@ -190,6 +196,44 @@ class Model:
         return 2 if delta < -self.backlash else 1
 
 
+def check_friction_coefficients(p: GearParams, effects: Effects) -> float:
+    """The static coefficient of ``effects`` for the gear data ``p`` (``mu`` when not given).
+
+    Raises ValueError naming ``mu_static`` when it is below the kinetic ``mu``, when the
+    friction law has no use for a static coefficient (``off``, ``nominal``), or with
+    ``regularized`` and no Stribeck velocity (the only way that law sees ``mu_static``).
+    """
+    ms = effects.mu_static
+    if ms is None or ms == p.mu:
+        return float(p.mu)
+    if ms < p.mu:
+        raise ValueError(f"mu_static = {ms!r} is out of range; allowed [mu, 1] = [{p.mu:g}, 1] "
+                         "(static friction is at least the kinetic mu), or None for mu")
+    law = effects.friction
+    if law in ("off", "nominal"):
+        raise ValueError(f"mu_static = {ms!r} (> mu = {p.mu:g}) needs friction = 'stick_slip' "
+                         f"or 'regularized': friction = {law!r} has no static friction")
+    if law == "regularized" and effects.stribeck_velocity is None:
+        raise ValueError(f"mu_static = {ms!r} (> mu = {p.mu:g}) with friction = 'regularized' "
+                         "needs stribeck_velocity: the regularized law has no stick state and "
+                         "sees mu_static only through the Stribeck curve")
+    return float(ms)
+
+
+def sliding_coefficient(mu: float, mu_static: float, stribeck_velocity: float, v):
+    """Coefficient of sliding friction at sliding velocity ``v`` (m/s), beyond the paper.
+
+    ``mu + (mu_static - mu) exp(-(|v|/v_s)^2)``: ``mu_static`` as ``v -> 0`` (continuous
+    with the static limit of Eq. (14), so a pair leaving stick starts to slide at the force
+    that broke it) and ``mu`` for ``|v| >> v_s``. ``stribeck_velocity = 0``: the constant
+    ``mu`` of Eq. (11). Works on scalars and arrays.
+    """
+    if stribeck_velocity == 0.0:
+        return mu
+    r = np.asarray(v) / stribeck_velocity
+    return mu + (mu_static - mu) * np.exp(-(r * r))
+
+
 @dataclass
 class Eval:
     """Everything the right-hand side computes at one instant (SI)."""
@@ -217,8 +261,16 @@ class Eval:
 
 
 def friction_law_forces(model: Model, normal, v, nominal, dirs) -> np.ndarray:
-    """Sliding friction per pair (N) for the slip state, Eq. (11), by the chosen law."""
+    """Sliding friction per pair (N) for the slip state, Eq. (11), by the chosen law.
+
+    The coefficient is the kinetic ``mu``; with a Stribeck velocity the laws that see the
+    sliding velocity (``regularized``, ``stick_slip``) take `sliding_coefficient` of ``v``
+    instead, so the regularized law tends to the stick-slip law with the same ``mu_static``
+    as ``v_eps`` shrinks below ``v_s``. ``nominal`` keeps ``mu`` (it ignores ``v``).
+    """
     law, mu = model.effects.friction, model.mu
+    if model.stribeck_velocity and law in ("regularized", "stick_slip"):
+        mu = sliding_coefficient(mu, model.mu_static, model.stribeck_velocity, v)
     mag = mu * np.abs(normal)
     if law == "nominal":
         return mag * np.sign(nominal)

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from .effects import Effects, StiffnessSpec
+from .equations import check_friction_coefficients
 from .params import RPM, GearParams, OperatingPoint, check_range
 from .results import UNITS, Constant, Trajectory, simulate
 
@@ -319,6 +320,13 @@ def fmu_start_values(scene: Scene, variables: dict[str, Any]) -> dict[str, Any]:
         if "backlash" not in variables:
             raise refuse("[effects] backlash (no parameter 'backlash')")
         start["backlash"] = float(fx.backlash)
+    # 0 is the FMU's "not given" (mu_static = mu, no Stribeck decay)
+    for name in ("mu_static", "stribeck_velocity"):
+        value = getattr(fx, name)
+        if value is not None:
+            if name not in variables:
+                raise refuse(f"[effects] {name} (no parameter {name!r})")
+            start[name] = float(value)
     if fx.dof != "full" or "dof" in variables:
         if "dof" not in variables:
             raise refuse(f"[effects] dof = {fx.dof!r} (no parameter 'dof')")
@@ -494,7 +502,7 @@ def _gear(d: dict) -> GearParams:
 
 
 _EFFECT_KEYS = ("stiffness", "separation", "friction", "v_eps", "sliding", "stick_tie",
-                "backlash", "dof")
+                "backlash", "dof", "mu_static", "stribeck_velocity")
 
 
 def _stiffness(d: Any, base: Path, params: GearParams) -> StiffnessSpec:
@@ -541,12 +549,14 @@ def _effects(d: dict, base: Path, params: GearParams) -> Effects:
             kw[key] = _stiffness(v, base, params)
         elif key == "separation":
             kw[key] = _bool(where, key, v)
-        elif key in ("v_eps", "backlash"):
+        elif key in ("v_eps", "backlash", "mu_static", "stribeck_velocity"):
             kw[key] = _num(where, key, v)
         else:
             kw[key] = _str(where, key, v)
     try:
-        return Effects(**kw)
+        fx = Effects(**kw)
+        check_friction_coefficients(params, fx)  # mu_static against the gear's mu, at load
+        return fx
     except ValueError as exc:  # Effects' messages start with the field (or fields) concerned
         raise SceneError(f"[{where}] {exc}") from None
 

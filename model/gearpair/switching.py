@@ -8,13 +8,20 @@ when it must change, so an engine only watches for a fall through zero:
   (-> back-flank contact); on the back flank: ``-(delta + b)`` (-> apart);
 - a slipping pair with direction d: ``d * v_j`` (the sliding velocity reverses -> test for
   stick by Eq. (14));
-- a stuck pair: ``mu f_mesh - |f_static|`` (Eq. (14) violated -> slip in the direction of
-  ``f_static``).
+- a stuck pair: ``mu_static f_mesh - |f_static|`` (Eq. (14) violated -> slip in the
+  direction of ``f_static``).
+
+``mu_static`` (`Effects.mu_static`, equal to the kinetic ``mu`` unless given) bounds the
+static friction wherever this module tests for stick; a pair that slips takes the sliding
+coefficient (``mu``, or the Stribeck curve) from `equations.friction_law_forces`. With
+``mu_static > mu`` a released pair therefore slides with less friction than the limit it
+broke, and slip continues away from v = 0 (no chatter at the release).
 
 With ``stick_tie="paper"`` the static friction of Eq. (20)-(21) lacks the rate of the nominal
 sliding velocity. Then Eq. (14) may release a stick while the slip dynamics on both sides push
 ``v_j`` back to zero (the band of MODEL.md, "Two traps"), and a literal implementation stalls.
-Rule used here: a pair sticks while ``min(|f_static,paper|, |f_static,exact|) <= mu f_mesh``;
+Rule used here: a pair sticks while
+``min(|f_static,paper|, |f_static,exact|) <= mu_static f_mesh``;
 it is released only when both exceed the limit, in the direction of the exact one. So the
 paper tie can only lengthen sticks, never chatter.
 """
@@ -88,7 +95,7 @@ def event_values(model: Model, ev: Eval, mode: Mode, active: np.ndarray) -> np.n
             if mode.separated and math.isfinite(b):
                 out.append(ev.delta + b)
     if model.effects.friction == "stick_slip" and not mode.separated:
-        mu = model.p.mu
+        mu = model.mu_static
         stuck = mode.stuck[active]
         lam_i = 0
         for i, j in enumerate(active):
@@ -120,7 +127,7 @@ def stick_test(model: Model, s, q, qd, torque, speed, active, mode: Mode, j: int
     lam_e = ev.lam_exact[_stuck_rank(stuck_a, i)]
     if model.effects.stick_tie == "paper":
         lam = min(lam, abs(lam_e))
-    limit = model.p.mu * abs(ev.normal[i])
+    limit = model.mu_static * abs(ev.normal[i])
     return lam <= limit, _sign(lam_e)
 
 
@@ -180,9 +187,10 @@ def speed_change(model: Model, s, q, qd, torque, speed, active, mode: Mode, h: f
 
     The nominal sliding velocity of a stuck pair jumps with the speed, Eqs. (12)-(13). A real
     speed change is spread over the step ``h`` (s), during which static friction can deliver
-    at most the impulse ``mu N h``. A stuck pair therefore stays stuck, with its sliding
-    velocity restored to zero by a friction impulse along ``w_j`` (``q' += M^-1 w_j lambda``),
-    when that impulse ``m_eff |v_j|`` is within ``mu N_j h``; otherwise it slips in the
+    at most the impulse ``mu_static N h``. A stuck pair therefore stays stuck, with its
+    sliding velocity restored to zero by a friction impulse along ``w_j``
+    (``q' += M^-1 w_j lambda``), when that impulse ``m_eff |v_j|`` is within
+    ``mu_static N_j h``; otherwise it slips in the
     direction of its new ``v_j``. Slipping pairs take the sign of their new ``v_j``. So a
     finely sampled speed ramp keeps its sticks and a large speed step breaks them.
 
@@ -204,7 +212,7 @@ def speed_change(model: Model, s, q, qd, torque, speed, active, mode: Mode, h: f
         if v == 0.0:
             continue
         S = float((a * minv) @ w)
-        if abs(v) <= model.p.mu * abs(ev.normal[i]) * h * abs(S):
+        if abs(v) <= model.mu_static * abs(ev.normal[i]) * h * abs(S):
             qd += minv * w * (-v / S)
         else:
             new.stuck[j] = False

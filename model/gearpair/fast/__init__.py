@@ -7,7 +7,6 @@ taking a step as `reference.ReferenceEngine`. One module per concern, as the ref
 
 - `layout`: the records the compiled functions take (`ModelData`, `HybridState`, `Work`,
   `Piece`, `Step`) and the index names of their flat arrays (no numba);
-- `jitcache`: numba's on-disk cache, keyed by the content of this package (no location);
 - `contact`: contact-state evaluation, event functions and the right-hand side;
 - `switching`: slip directions, the Eq. (14) stick test, releases, separation, speed jumps;
 - `tableaux` and `rk`: the Runge-Kutta pairs as data (DOP853 by default, Dormand-Prince 5(4)
@@ -19,14 +18,15 @@ taking a step as `reference.ReferenceEngine`. One module per concern, as the ref
 
 Everything on the hot path is ``numba.njit`` on named tuples of flat float64/int64 arrays:
 no Python objects, no allocation in the right-hand side (the work buffers are allocated once
-per engine). Only this package imports numba; the rest of `gearpair` works without it.
+per engine). Only this package and `gearpair.jitcache` (numba's on-disk cache, keyed by the
+content of this package's files) import numba; the rest of `gearpair` works without it.
 """
 
 from __future__ import annotations
 
-from . import jitcache  # noqa: F401  (first: sets NUMBA_CACHE_DIR before numba loads)
+from .. import jitcache  # noqa: F401  (first: sets NUMBA_CACHE_DIR before numba loads)
+from ..jitcache import CACHE, CACHE_DIR
 from .engine import SCALE, FastEngine, FastOptions, integrated_components
-from .jitcache import CACHE, CACHE_DIR
 from .layout import (
     FR_NOMINAL,
     FR_OFF,

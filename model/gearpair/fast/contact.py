@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .jitcache import inline_copy, jit, jit_inline
+from ..jitcache import jit, jit_inline
 from .layout import (
     FR_NOMINAL,
     FR_REG,
@@ -368,7 +368,7 @@ def evaluate(md, wk, pc, s, s_idx, y, dirs, stuck):
 
 # The right-hand side (6 or 12 calls a Runge-Kutta step) gets its own inlined copy of the
 # contact-state evaluation; the other callers share the compiled function (compile time).
-evaluate_inline = inline_copy(evaluate)
+evaluate_inline = jit_inline(evaluate.py_func)
 
 
 @jit_inline
@@ -476,7 +476,7 @@ def rhs(md, wk, pc, hs, t, s_idx, y, dy):
 
 # The Runge-Kutta stages call the right-hand side 6 or 12 times a step: there it is inlined
 # (with the contact-state evaluation); elsewhere the compiled call keeps the kernels small.
-rhs_inline = inline_copy(rhs)
+rhs_inline = jit_inline(rhs.py_func)
 
 
 @jit

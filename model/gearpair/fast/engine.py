@@ -49,7 +49,9 @@ from .layout import (
     N_ST,
     N_Y,
     NZ,
+    O_FINT,
     O_FMAX,
+    O_FMIN,
     O_NEV,
     O_NREJ,
     O_NSTEPS,
@@ -81,11 +83,12 @@ from .layout import (
     P_TTOL,
     P_VEPS,
     P_XIP,
-    R_GEND,
+    R_FSTG,
     S_COMP,
     S_KM,
     STATUS_EVENTS,
     STATUS_STEP,
+    T_BACK,
     T_H,
     T_S,
     T_SEP,
@@ -243,7 +246,7 @@ def work_buffers(n: int) -> Work:
     return Work(
         active=np.zeros(n, dtype=np.int64), trial=np.zeros(n, dtype=np.int64),
         bound_offs=np.zeros(3), bound_k=np.zeros(3, dtype=np.int64),
-        stages=np.zeros((RK_NK, N_Y)), dense=np.zeros((R_GEND + 1, max(N_Y, n + 2))),
+        stages=np.zeros((RK_NK, N_Y)), dense=np.zeros((R_FSTG + 1, max(N_Y, n + 2, RK_NK))),
         ytmp=np.zeros(N_Y), ynew=np.zeros(N_Y), g=np.zeros(n + 2), gprev=np.zeros(n + 2),
         pair=np.zeros((N_PW, n)), scal=np.zeros(N_SC), solve=np.zeros((n, n + 2)),
         lti_mats=np.zeros((L_SCRATCH + 12, NZ, NZ)), lti_keys=lti_keys,
@@ -280,6 +283,9 @@ class FastEngine(Engine):
         if not (1e-14 <= rtol <= 1e-2):
             raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
         m = self.model = Model.build(params, effects)
+        if m.mu_static != m.mu or m.effects.stribeck_velocity is not None:
+            raise ValueError("mu_static (other than mu) and stribeck_velocity are not in the "
+                             "fast engine yet; use engine=\"reference\" (FMU: engine = 1)")
         self.rtol = float(rtol)
         self.atol = SCALE * rtol if opts.atol is None else np.full(N_Y, float(opts.atol))
         max_step = opts.max_step
@@ -345,7 +351,8 @@ class FastEngine(Engine):
             "separated": bool(mode[J_SEP]), "back": bool(mode[J_SEP] == 2),
             "dirs": hs.dirs.copy(),
             "stuck": hs.stuck.astype(bool), "t_stick": float(st[T_STICK]),
-            "t_sep": float(st[T_SEP]), "n_events_total": int(mode[J_NEVTOT]),
+            "t_sep": float(st[T_SEP]), "t_back": float(st[T_BACK]),
+            "n_events_total": int(mode[J_NEVTOT]),
             "h": float(st[T_H]) if st[T_H] > 0 else None,
             "prev_active": None if npv < 0 else [int(j) for j in hs.prev_active[:npv]],
             "last": self._last,
@@ -368,6 +375,7 @@ class FastEngine(Engine):
         hs.dirs[:] = np.asarray(state["dirs"], dtype=float)
         hs.stuck[:] = np.asarray(state["stuck"], dtype=bool).astype(np.int64)
         st[T_STICK], st[T_SEP] = float(state["t_stick"]), float(state["t_sep"])
+        st[T_BACK] = float(state.get("t_back", 0.0))
         mode[J_NEVTOT] = int(state["n_events_total"])
         h = state.get("h")
         st[T_H] = float(h) if h else 0.0
@@ -409,14 +417,15 @@ class FastEngine(Engine):
 
         Returns
         -------
-        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps) of the step;
+        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps,
+        back_fraction, mesh_force_mean, mesh_force_min) of the step (`StepSummary`'s order);
         `output_values` then has the outputs.
         """
         t_start = self.time
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
         st, mp = self._hs.clock, self._md.par
-        t_stick0, t_sep0 = st[T_STICK], st[T_SEP]
+        t_stick0, t_sep0, t_back0 = st[T_STICK], st[T_SEP], st[T_BACK]
         self._hs.y[Y_AD] = 0.0 if load_speed is None else \
             -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
         out = self._wk.summary
@@ -427,7 +436,9 @@ class FastEngine(Engine):
         o = self.output_values()
         self._last = (t_start, float(t_end))
         return ((st[T_STICK] - t_stick0) / h, (st[T_SEP] - t_sep0) / h,
-                max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]))
+                max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]),
+                (st[T_BACK] - t_back0) / h, float(out[O_FINT]) / h,
+                min(float(out[O_FMIN]), float(o[1])))
 
     def _raise_failure(self) -> None:
         out = self._wk.summary
@@ -477,8 +488,10 @@ class FastEngine(Engine):
 
         Returns
         -------
-        dict of arrays over ``grid``: the `Outputs` fields and ``stick_fraction``,
-        ``separation_fraction``, ``mesh_force_max``, ``n_events`` (row 0: the start).
+        dict of arrays over ``grid``: the `Outputs` fields and the `StepSummary` figures
+        ``stick_fraction``, ``separation_fraction``, ``back_fraction``, ``mesh_force_mean``,
+        ``mesh_force_min``, ``mesh_force_max``, ``n_events`` of the interval ending there
+        (row 0: the start).
         """
         grid, T, W, yad = self._grid_inputs(grid, torque, speed, load_speed)
         n = len(grid)
@@ -493,7 +506,8 @@ class FastEngine(Engine):
         data = {k: rec[m] for m, k in enumerate(names)}
         data["contact_state"] = data["contact_state"].astype(int)
         for m, k in enumerate(("stick_fraction", "separation_fraction", "mesh_force_max",
-                               "n_events")):
+                               "n_events", "back_fraction", "mesh_force_mean",
+                               "mesh_force_min")):
             data[k] = rec[N_O + m]
         return data
 
@@ -542,5 +556,10 @@ class FastEngine(Engine):
 
     @property
     def separation_time(self) -> float:
-        """Time spent with the teeth apart since reset (s)."""
+        """Time spent with no flank in contact since reset (s)."""
         return float(self._hs.clock[T_SEP])
+
+    @property
+    def back_time(self) -> float:
+        """Time spent on the back flank since reset (s)."""
+        return float(self._hs.clock[T_BACK])

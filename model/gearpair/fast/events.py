@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from ..jitcache import jit, jit_inline
 from .contact import (
     evaluate,
     event_values,
@@ -22,7 +25,6 @@ from .contact import (
     rhs,
     sep_event_values,
 )
-from .jitcache import jit, jit_inline
 from .layout import (
     FR_STICK,
     I_FRIC,
@@ -31,7 +33,9 @@ from .layout import (
     I_NIX,
     J_REL,
     N_Y,
+    O_FINT,
     O_FMAX,
+    O_FMIN,
     P_BACK,
     P_RB1,
     P_SPACING,
@@ -216,6 +220,8 @@ def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
             fm = events_light(md, wk, pc, hs, sp.t + th * sp.hh, wk.ytmp, g)
         if fm > summ[O_FMAX]:
             summ[O_FMAX] = fm
+        if fm < summ[O_FMIN]:
+            summ[O_FMIN] = fm
         if falls(wk, ng):
             return True, th_prev, th
         for e in range(ng):
@@ -270,6 +276,24 @@ def refine(md, wk, pc, hs, sp, nf, e, bracket):
     return b
 
 
+# Gauss-Legendre nodes and weights on [0, 1] (3 points, exact to degree 5): the mesh force
+# integral over a step cut short by an event, on its continuous extension
+GL3_X = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
+GL3_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
+
+
+@jit
+def force_integral(md, wk, pc, hs, sp, nf, th):
+    """Mean mesh force over the fraction ``th`` of step ``sp`` up to a switch: Gauss-Legendre
+    on the continuous extension (the stage quadrature covers whole steps only)."""
+    fi = 0.0
+    for gi in range(3):
+        interp(md, wk.dense, nf, GL3_X[gi] * th, wk.ytmp)
+        fi += GL3_W[gi] * events_at(md, wk, pc, hs, sp.t + GL3_X[gi] * th * sp.hh, wk.ytmp,
+                                    wk.ynew)
+    return fi
+
+
 @jit
 def locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit):
     """Refine every falling function on the interpolant; at the earliest, move the state
@@ -285,6 +309,7 @@ def locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit):
     te = sp.t + best_th * sp.hh
     if best_th >= 1.0:
         te = sp.tn
+    wk.summary[O_FINT] += force_integral(md, wk, pc, hs, sp, nf, best_th) * (te - sp.t)
     interp(md, wk.dense, nf, best_th, wk.ytmp)
     for m in range(N_Y):
         hs.y[m] = wk.ytmp[m]

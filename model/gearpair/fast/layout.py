@@ -43,8 +43,9 @@ N_PW = 11
 S_DELTA, S_DDELTA, S_KM, S_THETA, S_F, S_QDD, S_COMP = 0, 1, 2, 3, 4, 10, 16
 N_SC = 17
 # -- HybridState.clock (continuous scalars) and HybridState.mode (discrete) -----------------
-T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL = range(8)
-N_ST = 8
+# T_SEP: no flank in contact (free flight); T_BACK: on the back flank (contact, not loss)
+T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL, T_BACK = range(9)
+N_ST = 9
 # J_SEP: 0 drive flank, 1 apart, 2 back flank; J_REL: 1 + the pair released at time T_REL
 J_SEP, J_NPREV, J_NEVTOT, J_REL = range(4)
 N_IST = 4
@@ -53,13 +54,18 @@ N_Y = 18  # q, q', 4 energy quadratures (input, damping loss, friction work, par
 Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held per step)
 N_MI = I_IX + N_Y
 # -- Work.summary: the summary of one advance --------------------------------------------------
-O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ = range(6)  # O_NREJ: rejected steps
-N_OUT = 6
+# O_NREJ: rejected steps; O_FINT: time integral of the mesh force over the advance (N s),
+# O_FMIN: its least sample (as O_FMAX the peak)
+O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ, O_FINT, O_FMIN = range(8)
+N_OUT = 8
 STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
 N_O = 10  # outputs: dte, mesh, friction, state, out torque, reaction, in torque, w1, w2, v
-N_REC = N_O + 4  # a recorded row: outputs, stick and separation fractions, peak force, events
-# -- Work.dense rows: the continuous extension, then the event values at a step's ends -------
-R_GSAVE, R_GEND = 8, 9
+# a recorded row: outputs, stick and separation fractions, peak force, events, back-flank
+# fraction, mean and least mesh force over the interval
+N_REC = N_O + 7
+# -- Work.dense rows: the continuous extension, the event values at a step's ends, and the
+# mesh force at each Runge-Kutta stage of the current step
+R_GSAVE, R_GEND, R_FSTG = 8, 9, 10
 # -- the exact propagator: z = [q, q', a, a', torque, 1, integral of u2] ---------------------
 NZ = 17
 Z_A, Z_AD, Z_TQ, Z_ONE, Z_IU2 = 12, 13, 14, 15, 16
@@ -97,7 +103,8 @@ class Work(NamedTuple):
     bound_offs: np.ndarray  # float64[3]: offsets of the known boundaries in a base pitch
     bound_k: np.ndarray     # int64[3]: index of the next boundary of each kind
     stages: np.ndarray      # float64[16, N_Y]: Runge-Kutta stages
-    dense: np.ndarray       # float64[10, >= N_Y]: continuous extension, event values R_G*
+    dense: np.ndarray       # float64[11, >= N_Y]: continuous extension, event values, stage
+    #                         mesh forces (rows R_*)
     ytmp: np.ndarray        # float64[N_Y]
     ynew: np.ndarray        # float64[N_Y]
     g: np.ndarray           # float64[n + 2]: event values

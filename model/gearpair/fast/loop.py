@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from ..engine import CONTACT_BACK, CONTACT_SEPARATED, CONTACT_SLIP, CONTACT_STICK
+from ..jitcache import jit, jit_inline
 from .contact import (
     active_at,
     evaluate,
@@ -28,7 +29,6 @@ from .contact import (
     param_rate,
 )
 from .events import events_at, locate_and_switch, scan_step
-from .jitcache import jit, jit_inline
 from .layout import (
     FR_NOMINAL,
     FR_STICK,
@@ -47,7 +47,9 @@ from .layout import (
     N_O,
     N_OUT,
     N_Y,
+    O_FINT,
     O_FMAX,
+    O_FMIN,
     O_NEV,
     O_NSTEPS,
     O_STATUS,
@@ -61,6 +63,7 @@ from .layout import (
     P_RB1,
     P_RB2,
     P_XIP,
+    R_FSTG,
     S_COMP,
     S_DDELTA,
     S_DELTA,
@@ -69,6 +72,7 @@ from .layout import (
     STATUS_EVENTS,
     STATUS_OK,
     STATUS_STEP,
+    T_BACK,
     T_H,
     T_REL,
     T_S,
@@ -91,7 +95,7 @@ from .layout import (
 from .lti import piece_lti
 from .rk import first_step, try_step
 from .switching import end_piece, settle, speed_change, switch
-from .tableaux import RK_NS
+from .tableaux import RK_A, RK_NS
 
 
 @jit_inline
@@ -105,6 +109,8 @@ def start_checks(md, wk, pc, hs):
     fm = events_at(md, wk, pc, hs, pc.t0, hs.y, gprev)
     if fm > wk.summary[O_FMAX]:
         wk.summary[O_FMAX] = fm
+    if fm < wk.summary[O_FMIN]:
+        wk.summary[O_FMIN] = fm
     e0 = n_sep_events(md, pc.cs)
     retest = False
     for e in range(e0, n_events(md, pc.nact, pc.cs)):
@@ -131,8 +137,14 @@ def start_checks(md, wk, pc, hs):
 def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
     """Take the accepted step ``sp`` (FSAL: its last stage is the next first); at a knot,
     find the next one. Returns (t, t_knot)."""
-    y, K = hs.y, wk.stages
-    ns = RK_NS[md.flag[I_METHOD]]
+    y, K, R = hs.y, wk.stages, wk.dense
+    meth = md.flag[I_METHOD]
+    ns = RK_NS[meth]
+    fi = 0.0
+    for j in range(ns - 1):  # the weights b: the last row of A (first same as last)
+        fi += RK_A[meth, ns - 1, j] * R[R_FSTG, j]
+    wk.summary[O_FINT] += sp.hh * fi
+    R[R_FSTG, 0] = R[R_FSTG, ns - 1]
     for m in range(N_Y):
         y[m] = wk.ynew[m]
         K[0, m] = K[ns - 1, m]
@@ -325,6 +337,7 @@ def advance(md, wk, hs, t_end, torque, speed):
     for i in range(N_OUT):
         summ[i] = 0.0
     summ[O_FMAX] = -np.inf
+    summ[O_FMIN] = np.inf
     if speed != st[T_SPEED] and md.flag[I_FRIC] == FR_STICK and hs.mode[J_SEP] == 0:
         nact = current_active(md, wk, hs)
         speed_change(md, wk, hs, nact, torque, speed, t_end - st[T_T])
@@ -423,8 +436,10 @@ def run_grid(md, wk, hs, grid, torque, speed, yad, rec):
     for m in range(N_O):
         rec[m, 0] = o[m]
     rec[N_O + 2, 0] = o[1]
+    rec[N_O + 5, 0] = o[1]
+    rec[N_O + 6, 0] = o[1]
     for i in range(1, n):
-        t0, stick0, sep0 = st[T_T], st[T_STICK], st[T_SEP]
+        t0, stick0, sep0, back0 = st[T_T], st[T_STICK], st[T_SEP], st[T_BACK]
         y[Y_AD] = yad[i - 1]
         advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1])
         if summ[O_STATUS] != STATUS_OK:
@@ -437,6 +452,9 @@ def run_grid(md, wk, hs, grid, torque, speed, yad, rec):
         rec[N_O + 1, i] = (st[T_SEP] - sep0) / h
         rec[N_O + 2, i] = max(summ[O_FMAX], o[1])
         rec[N_O + 3, i] = summ[O_NEV]
+        rec[N_O + 4, i] = (st[T_BACK] - back0) / h
+        rec[N_O + 5, i] = summ[O_FINT] / h
+        rec[N_O + 6, i] = min(summ[O_FMIN], o[1])
     return n
 
 

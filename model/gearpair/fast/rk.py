@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import math
 
+from ..jitcache import jit, jit_inline
 from .contact import next_knot_dt, rhs, rhs_inline
-from .jitcache import jit, jit_inline
 from .layout import (
     I_IX,
     I_METHOD,
@@ -20,6 +20,9 @@ from .layout import (
     P_MAXSTEP,
     P_RB1,
     P_RTOL,
+    R_FSTG,
+    S_COMP,
+    S_KM,
     T_H,
     Step,
 )
@@ -121,6 +124,7 @@ def first_step(md, wk, pc, hs, tb):
     hguess = h if h > 0.0 else 1e-7
     s_idx = pc.s0 + v1 * 0.5 * min(hguess, t_knot - t, tb - t)
     rhs(md, wk, pc, hs, pc.t0, s_idx, y, K[0])
+    wk.dense[R_FSTG, 0] = wk.scal[S_KM] * wk.scal[S_COMP]
     if not (h > 0.0):
         h = initial_step(md, wk, pc, hs, K[0], min(tb, t_knot))
     for m in range(N_Y):  # held components: y's values, which `interp` leaves in place
@@ -138,6 +142,10 @@ def step_error(md, wk, pc, hs, sp):
         c = RK_C[meth, stg]
         ts = sp.tn if c == 1.0 else t + c * hh
         rhs_inline(md, wk, pc, hs, ts, sp.si, ytmp, K[stg])
+        # the mesh force at the stage: its Runge-Kutta quadrature is the force's integral
+        # over the step at the method's order (a quadrature component of y, without one: it
+        # feeds nothing back and takes no part in the error control)
+        wk.dense[R_FSTG, stg] = wk.scal[S_KM] * wk.scal[S_COMP]
     for m in range(N_Y):
         wk.ynew[m] = ytmp[m]
     err = err_norm(md, y, wk.ynew, K, hh)

@@ -4,8 +4,8 @@ of the time spent in stick and apart."""
 
 from __future__ import annotations
 
+from ..jitcache import jit, jit_inline
 from .contact import evaluate, n_sep_events, pair_v, sgn
-from .jitcache import jit, jit_inline
 from .layout import (
     FR_STICK,
     I_FRIC,
@@ -20,6 +20,7 @@ from .layout import (
     P_MINV,
     P_MU,
     P_RB1,
+    T_BACK,
     T_S,
     T_SEP,
     T_STICK,
@@ -44,9 +45,11 @@ def any_stuck(md, stuck):
 
 @jit
 def book(md, hs, cs, dt):
-    """Add ``dt`` to the time apart (contact code ``cs`` != 0) or in stick."""
-    if cs != 0:  # drive flanks apart (free or on the back flank)
+    """Add ``dt`` to the time apart, on the back flank, or in stick."""
+    if cs == 1:  # no flank in contact
         hs.clock[T_SEP] += dt
+    elif cs == 2:  # on the back flank: contact, not contact loss
+        hs.clock[T_BACK] += dt
     elif any_stuck(md, hs.stuck):
         hs.clock[T_STICK] += dt
 

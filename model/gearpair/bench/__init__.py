@@ -1,0 +1,118 @@
+"""Benchmark: work-precision of the integrators, cost of the FMU and cost of each effect.
+
+``gearpair bench [--quick | --full] [--json] [--plot FILE] [--memory]`` (issues #4 and #5)
+measures in one run, side by side on the same machine:
+
+- **work-precision** for three regimes at the paper's low-speed point (3900 N.m, 100 r/min):
+  no friction, sliding (Coulomb friction in the nominal direction, no stick) and stick-slip.
+  Every method starts from the static equilibrium at t = 0 and records DTE and mesh force on
+  the same output grid; the error is the largest deviation from a tight reference divided by
+  the reference's largest magnitude, the cost the wall time (and the CPU time) per simulated
+  second. Methods: the fast core (`gearpair.fast.FastEngine`) at several tolerances, with its
+  default DOP853 and with Dormand-Prince 5(4) (rows ``fast dp5``); scipy's
+  RK45, DOP853, Radau and LSODA, run as `gearpair.reference.ReferenceEngine` (scipy's
+  ``OdeSolver`` classes, which ``solve_ivp`` drives, stepped segment by segment over the same
+  physics); the same four as a user would write the model, ``benchmarks/plain_scipy.py``
+  (rows ``plain <method>``: one numpy right-hand side per contact state, ``solve_ivp`` with
+  terminal events; skipped without the repository); the FMU through fmpy at communication
+  steps 1e-5, 1e-4 and 1e-3 s.
+- **equal accuracy**: per method the cheapest setting with DTE error <= 1e-6, and the ratios
+  fastest scipy method / fast core, on the reference engine and written plainly.
+- **FMU cost** at a 1e-3 s step against the core at the same step (driven as the FMU drives
+  it: one ``advance`` + ``outputs`` call per step) and the plumbing floor (the
+  same fmpy call on a pythonfmu slave that does nothing, ``examples/bench_noop``); the cost of
+  one set+doStep+get call; the first instantiation with an empty numba cache (compile)
+  against a warm one.
+- **the FMU in a C master** (issue #16): per-step cost of set 2 inputs + doStep + get 4
+  outputs at 1e-4 and 1e-3 s steps in ``benchmarks/fmi2_bench_host.c`` beside fmpy's, with
+  the no-op slave and the engine's own work, and the first start with empty and warm caches
+  (skipped without gcc or the repository).
+- **cost of effects** (issue #5): wall time per simulated second of every shipped scene and
+  of the effect ladder torsional constant stiffness -> time-varying -> 6-DOF -> sliding ->
+  stick-slip.
+- **memory** (``--memory``, in ``--full``): peak RSS of a 100 s run recorded every 1e-4 s.
+
+Every section is a function returning plain dicts and lists (JSON-ready), so tests can call
+them with tiny settings; `run` calls them all and `report` prints the tables. Measuring and
+reporting live apart: `settings` (presets, targets), `runs` (timing an engine, errors),
+`work_precision`, `plain`, `fmu`, `chost`, `effect_cost`, `memory` and `measure` (the
+whole run) measure;
+`targets`, `report` and `plot` judge and show; `cli` is the command line. FMU runs happen
+in child processes that never import the working tree's ``gearpair`` (the FMU imports its own
+bundled copy, as in any host); timings there use fresh instances whose instantiation is not
+counted (it is reported apart).
+"""
+
+from __future__ import annotations
+
+from .chost import build_host, host_measurements, run_host
+from .cli import add_parser, main, settings_from
+from .effect_cost import LADDER_RUNS, cost_table
+from .fmu import build_fmus, fmu_measurements, fmu_start, fmu_startup
+from .measure import run, warm_up
+from .memory import memory_peak
+from .plain import load_plain, plain_rows
+from .plot import plot
+from .report import jsonable, report, table
+from .runs import (
+    NEVER,
+    BudgetExceeded,
+    Timing,
+    _record,
+    _record_calls,
+    clock,
+    engine_run,
+    machine_info,
+    regime_effects,
+    relative_error,
+    time_limit,
+)
+from .settings import (
+    DEFAULT,
+    FRICTION_OF,
+    FULL,
+    HOST_SOURCE,
+    LADDER,
+    NOOP_SCRIPT,
+    PLAIN_PREFIX,
+    PLAIN_SCRIPT,
+    PRESETS,
+    QUICK,
+    REGIMES,
+    ROOT,
+    SCENES_DIR,
+    SCIPY_MAX_EVENTS,
+    SCIPY_METHODS,
+    TARGET_ERROR,
+    TARGET_FIRST_START_S,
+    TARGET_FMU_FACTOR,
+    TARGET_LADDER,
+    TARGET_MEMORY_MB,
+    TARGET_SLAVE_OWN_US,
+    TARGET_SPEEDUP,
+    TARGET_STICK_SLIP,
+    Settings,
+)
+from .targets import targets
+from .work_precision import (
+    accurate_rtol,
+    core_step_costs,
+    engine_call_cost,
+    engine_rows,
+    equal_accuracy,
+    references,
+)
+
+__all__ = [
+    "DEFAULT", "FRICTION_OF", "FULL", "HOST_SOURCE", "LADDER", "LADDER_RUNS", "NEVER",
+    "NOOP_SCRIPT", "PLAIN_PREFIX", "PLAIN_SCRIPT", "PRESETS", "QUICK", "REGIMES", "ROOT",
+    "SCENES_DIR", "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FIRST_START_S",
+    "TARGET_FMU_FACTOR", "TARGET_LADDER", "TARGET_MEMORY_MB", "TARGET_SLAVE_OWN_US",
+    "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls", "accurate_rtol",
+    "add_parser", "BudgetExceeded", "build_fmus", "build_host", "clock", "core_step_costs",
+    "cost_table", "engine_call_cost", "engine_rows", "engine_run", "equal_accuracy",
+    "fmu_measurements", "fmu_start", "fmu_startup", "host_measurements", "jsonable",
+    "load_plain", "machine_info", "main", "memory_peak", "plain_rows", "plot", "references",
+    "regime_effects", "relative_error", "report", "run", "run_host", "Settings",
+    "settings_from", "table", "targets", "time_limit", "Timing", "warm_up",
+]

@@ -1,0 +1,225 @@
+"""The FMU in a C master: per-step cost and first start (issue #16, item 4).
+
+A small timing host of the repository's own (``benchmarks/fmi2_bench_host.c``, compiled
+here with gcc against the FMI 2 headers that fmpy ships) runs the loop a co-simulation
+master runs, ``fmi2SetReal`` of 2 inputs, ``fmi2DoStep``, ``fmi2GetReal`` of 4 outputs, on
+GearPair and on the no-op slave at 1e-4 s and 1e-3 s communication steps; fmpy runs the same
+loop in a Python process, and the engine's own ``advance`` + ``outputs`` at the same step is
+timed in this process, so that the slave's own work per step (GearPair - no-op - engine)
+follows. The host also times the first start (instantiate, initialize, first step) with
+empty caches (fresh ``NUMBA_CACHE_DIR`` and ``XDG_CACHE_HOME``) and again with the caches it
+filled.
+
+The host prints its result and flushes it before it frees the instance, so a crash while
+the process exits (pythonfmu's teardown, docs/hosts.md) costs no data; the exit status is
+reported beside the numbers. Without gcc, fmpy's headers, a shared libpython or the
+repository's ``benchmarks/`` folder (an installed package) the section is skipped with a
+note.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sysconfig
+import tempfile
+import zipfile
+from pathlib import Path
+
+from .fmu import _worker, fmu_start
+from .runs import NEVER, Timing, clock, regime_effects
+from .settings import HOST_SOURCE, Progress, Settings, _quiet
+
+INPUTS = ("torque", "speed")
+OUTPUTS = ("dte", "mesh_force", "input_torque", "output_torque")
+REGIME = "stick_slip"  # the default point of the FMU: 3900 N.m, 100 r/min, stick-slip
+
+
+def build_host(workdir: Path) -> tuple[dict | None, str | None]:
+    """Compile the timing host; (host, None) or (None, why the section is skipped).
+
+    ``host`` holds the executable and the environment a pythonfmu FMU needs in a non-Python
+    process: ``LD_PRELOAD`` of this Python's shared libpython, ``PYTHONPATH`` of its
+    site-packages (numpy, scipy, numba)."""
+    gcc = shutil.which("gcc")
+    if gcc is None:
+        return None, "C host rows skipped: gcc not found"
+    if not HOST_SOURCE.is_file():
+        return None, (f"C host rows skipped: {HOST_SOURCE.name} not found (an installed "
+                      "package without the repository's benchmarks/ folder)")
+    try:
+        import fmpy
+    except ImportError:
+        return None, "C host rows skipped: fmpy (for the FMI 2 headers) is not installed"
+    headers = Path(fmpy.__file__).parent / "c-code"
+    lib = sysconfig.get_config_var("LDLIBRARY") or ""
+    libpython = Path(sysconfig.get_config_var("LIBDIR") or "") / lib
+    if not (lib.endswith(".so") or ".so." in lib) or not libpython.is_file():
+        return None, (f"C host rows skipped: this Python has no shared libpython ({lib!r}), "
+                      "which a pythonfmu FMU needs in a C host")
+    exe = Path(workdir) / "fmi2_bench_host"
+    proc = subprocess.run([gcc, "-O2", "-std=c99", f"-I{headers}", "-o", str(exe),
+                           str(HOST_SOURCE), "-ldl"], capture_output=True, text=True)
+    if proc.returncode != 0:
+        return None, f"C host rows skipped: gcc failed: {proc.stderr.strip()[-500:]}"
+    env = {"LD_PRELOAD": str(libpython), "PYTHONPATH": sysconfig.get_paths()["purelib"]}
+    return {"exe": str(exe), "env": env}, None
+
+
+def extract(fmu: str | Path, dest: Path) -> dict:
+    """Unzip an FMU; its folder, model identifier, GUID and value references by name."""
+    import fmpy
+
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(dest)
+    md = fmpy.read_model_description(str(fmu))
+    return {"dir": str(dest), "model": md.coSimulation.modelIdentifier, "guid": md.guid,
+            "vars": {v.name: (v.valueReference, v.type) for v in md.modelVariables}}
+
+
+def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
+             env: dict | None = None, timeout: float = 600.0) -> dict:
+    """One host process: its RESULT line as a dict, with ``exit_status``.
+
+    Raises RuntimeError when the host printed no result (it failed before its loop)."""
+    vr = unit["vars"]
+    args = [host["exe"], unit["dir"], unit["model"], unit["guid"], repr(step), str(n),
+            str(blocks), ",".join(str(vr[k][0]) for k in INPUTS),
+            ",".join(repr(float(start[k])) for k in INPUTS),
+            ",".join(str(vr[k][0]) for k in OUTPUTS)]
+    flag = {"Real": "-r", "Integer": "-i", "Boolean": "-b"}
+    for name, value in start.items():
+        ref, typ = vr[name]
+        if name in INPUTS or typ not in flag:
+            continue
+        value = int(bool(value)) if typ == "Boolean" else value
+        args += [flag[typ], f"{ref}={value!r}"]
+    child = dict(os.environ if env is None else env, **host["env"])
+    child.pop("PYTHONHOME", None)
+    proc = subprocess.run(args, capture_output=True, text=True, env=child, timeout=timeout)
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+    if not lines:
+        raise RuntimeError(f"C host printed no result (exit {proc.returncode}): "
+                           f"{(proc.stderr or proc.stdout)[-1000:]}")
+    out = json.loads(lines[-1][len("RESULT "):])
+    if not out.get("ok"):
+        raise RuntimeError(f"C host: {out.get('error')}: {proc.stderr[-1000:]}")
+    out["exit_status"] = proc.returncode
+    return out
+
+
+def engine_step_cost(rtol: float, step: float, n: int, repeats: int = 1) -> Timing:
+    """Time per ``advance`` + ``outputs`` call of the fast engine at the FMU's default point,
+    stepped ``step`` at a time (the engine's own work in one doStep)."""
+    from .. import make_engine
+    from ..params import OperatingPoint
+
+    op = OperatingPoint()
+    best = NEVER
+    for _ in range(max(1, repeats)):
+        eng = make_engine(None, regime_effects(REGIME), "fast", rtol=rtol)
+        eng.reset(0.0, op.torque, op.speed)
+        eng.advance(step, op.torque, op.speed)
+        eng.outputs()
+        t0 = clock()
+        for i in range(2, n + 2):
+            eng.advance(i * step, op.torque, op.speed)
+            eng.outputs()
+        took = clock() - t0
+        best = best.best(Timing(took.wall / n, took.cpu / n))
+    return best
+
+
+def host_measurements(s: Settings, fmu: Path, noop: Path, workdir: str | Path,
+                      progress: Progress = _quiet) -> dict:
+    """Per-step cost in the C host and in fmpy (GearPair, no-op, engine) at each of
+    ``s.host_steps``, and the C host's first start with empty and with warm caches."""
+    workdir = Path(workdir)
+    workdir.mkdir(parents=True, exist_ok=True)
+    rtol = s.fmu_rtols[-1]
+    out: dict = {"note": None, "regime": REGIME, "rtol": rtol, "inputs": list(INPUTS),
+                 "outputs": list(OUTPUTS), "n": s.host_n, "blocks": s.host_blocks,
+                 "steps": [], "startup": None}
+    host, note = build_host(workdir)
+    if host is None:
+        out["note"] = note
+        return out
+    units = {k: extract(f, workdir / k) for k, f in (("gearpair", fmu), ("noop", noop))}
+    starts = {k: fmu_start(f, REGIME, rtol) for k, f in (("gearpair", fmu), ("noop", noop))}
+    fmpy_loops = _fmpy_loops(s, fmu, noop, starts, progress)
+    for h in s.host_steps:
+        row = {"step": h, "error": None, "exit_status": {}}
+        try:
+            for key in ("gearpair", "noop"):
+                progress(f"C host: {key} at {h:g} s steps")
+                got = run_host(host, units[key], starts[key], h, s.host_n, s.host_blocks)
+                row[f"c_{key}_us"] = 1e6 * min(got["block_wall_s"]) / s.host_n
+                row[f"c_{key}_cpu_us"] = 1e6 * min(got["block_cpu_s"]) / s.host_n
+                row["exit_status"][key] = got["exit_status"]
+                for clk, i in (("", 0), ("_cpu", 1)):
+                    ans = fmpy_loops[key].get(repr(h))
+                    row[f"fmpy_{key}{clk}_us"] = None if not isinstance(ans, list) \
+                        else 1e6 * ans[i]
+            took = engine_step_cost(rtol, h, s.host_n, s.repeats)
+            row["engine_us"], row["engine_cpu_us"] = 1e6 * took.wall, 1e6 * took.cpu
+            for clk in ("", "_cpu"):
+                row[f"c_slave_own{clk}_us"] = row[f"c_gearpair{clk}_us"] \
+                    - row[f"c_noop{clk}_us"] - row[f"engine{clk}_us"]
+            row["c_per_sim_s"] = row["c_gearpair_us"] * 1e-6 / h
+        except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+            row["error"] = f"{type(exc).__name__}: {exc}"
+        out["steps"].append(row)
+    if s.startup:
+        out["startup"] = host_startup(host, units["gearpair"], starts["gearpair"], progress)
+    return out
+
+
+def _fmpy_loops(s: Settings, fmu: Path, noop: Path, starts: dict,
+                progress: Progress = _quiet) -> dict:
+    """The same loop through fmpy (one child process per FMU): per step [wall, CPU] (s) by
+    ``repr(step)``, or an error dict."""
+    got = {}
+    for key, f in (("gearpair", fmu), ("noop", noop)):
+        progress(f"fmpy: {key}, the C host's loop")
+        loops = {repr(h): dict(start=starts[key], step=h, n=s.host_n, outputs=list(OUTPUTS),
+                               repeats=s.host_blocks) for h in s.host_steps}
+        try:
+            got[key] = _worker({"fmu": str(f), "loops": loops})["loops"]
+        except RuntimeError as exc:
+            got[key] = {repr(h): {"error": str(exc)} for h in s.host_steps}
+    return got
+
+
+def host_startup(host: dict, unit: dict, start: dict, progress: Progress = _quiet) -> dict:
+    """First start in the C host (instantiate, initialize, first 1e-3 s step) with empty
+    caches, then again with the caches that run filled."""
+    out: dict = {"error": None}
+    with tempfile.TemporaryDirectory(prefix="gearpair_bench_cache_") as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(Path(cache) / "numba"),
+                   XDG_CACHE_HOME=str(Path(cache) / "xdg"))
+        try:
+            for key, what in (("empty", "empty caches"), ("warm", "the caches just filled")):
+                progress(f"C host: first start with {what}")
+                got = run_host(host, unit, start, 1e-3, 10, 1, env=env, timeout=1800.0)
+                out[key] = {k: got[k] for k in ("instantiate_s", "initialize_s",
+                                                "first_step_s", "exit_status")}
+                out[key]["total_s"] = sum(got[k] for k in ("instantiate_s", "initialize_s",
+                                                           "first_step_s"))
+        except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+            out["error"] = f"{type(exc).__name__}: {exc}"
+    return out
+
+
+def exit_note(status: int) -> str:
+    """An exit status in words (a negative one is the signal that ended the host)."""
+    if status >= 0:
+        return str(status)
+    try:
+        import signal
+
+        return f"{signal.Signals(-status).name} at exit"
+    except ValueError:
+        return f"signal {-status}"
+

@@ -1,0 +1,91 @@
+"""``gearpair bench``: options, presets and the printed or JSON output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import replace
+
+from .report import jsonable, report
+from .settings import DEFAULT, FULL, QUICK, Settings
+
+DESCRIPTION = ("Benchmark: work-precision of the integrators, cost of the FMU and cost of "
+               "each effect.")
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register ``bench`` on a subparsers object (the ``gearpair`` command line)."""
+    p = sub.add_parser("bench", help="work-precision, FMU cost and cost-per-effect tables "
+                       "(docs/bench.md)", description=DESCRIPTION)
+    size = p.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true", help="tiny horizons, for tests")
+    size.add_argument("--full", action="store_true", help="longer runs, more tolerances, "
+                      "memory (tens of minutes)")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--plot", metavar="FILE", help="draw the work-precision diagram (needs "
+                   "matplotlib)")
+    p.add_argument("--memory", action="store_true", help="also measure the peak RSS of a "
+                   "100 s run (slow; included in --full)")
+    p.add_argument("--no-fmu", action="store_true", help="skip the FMU sections")
+    p.add_argument("--no-startup", action="store_true", help="skip the FMU compile/cached "
+                   "start-up measurement")
+    p.add_argument("--step-horizon", type=float, metavar="S", help="simulated time of the "
+                   "1e-3 s step costs (core, FMU, floor); default 1 s (0.02 s with --quick)")
+    return p
+
+
+
+
+def settings_from(args: argparse.Namespace) -> Settings:
+    """The `Settings` of the command line options (a preset, then the overrides)."""
+    s = QUICK if args.quick else FULL if args.full else DEFAULT
+    if args.memory:
+        s = replace(s, memory=True)
+    if args.no_fmu:
+        s = replace(s, fmu=False)
+    if args.no_startup:
+        s = replace(s, startup=False)
+    if args.step_horizon is not None:
+        if not (math.isfinite(args.step_horizon) and 0.0 < args.step_horizon <= 100.0):
+            raise ValueError(f"--step-horizon = {args.step_horizon!r} must be in (0, 100] s")
+        s = replace(s, step_horizon=float(args.step_horizon))
+    return s
+
+
+def main(argv: list[str] | argparse.Namespace | None = None) -> int:
+    """``gearpair bench``: run, print the tables (or JSON), optionally draw the diagram."""
+    if isinstance(argv, argparse.Namespace):
+        args = argv
+    else:
+        ap = argparse.ArgumentParser(prog="gearpair")
+        add_parser(ap.add_subparsers(dest="cmd", required=True))
+        args = ap.parse_args(["bench", *(sys.argv[1:] if argv is None else argv)])
+    s = settings_from(args)
+    t0 = time.perf_counter()
+
+    def progress(msg: str) -> None:
+        print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
+
+    from .. import bench  # the package's `run`, which tests may replace
+
+    result = bench.run(s, progress)
+    if args.plot:
+        try:
+            from .plot import plot
+
+            plot(result, args.plot)
+        except ImportError as exc:
+            print(f"gearpair: error: {exc}", file=sys.stderr)
+            return 1
+        result["plot"] = args.plot
+    if args.json:
+        print(json.dumps(jsonable(result), indent=1, allow_nan=False))
+    else:
+        print(report(result))
+        if args.plot:
+            print(f"\nwork-precision diagram written to {args.plot}")
+    return 0
+

@@ -1,0 +1,305 @@
+"""The benchmark's result as plain-text tables and as strict JSON."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .chost import exit_note
+from .settings import FRICTION_OF, REGIMES, TARGET_ERROR, TARGET_FMU_FACTOR
+
+
+def _fmt(x, spec: str = ".3g") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, bool):
+        return "yes" if x else "NO"
+    if isinstance(x, float):
+        return format(x, spec)
+    return str(x)
+
+
+def table(headers: list[str], rows: list[list]) -> str:
+    """Plain-text table, columns right-aligned except the first."""
+    cells = [[str(h) for h in headers]] + [[str(c) for c in r] for r in rows]
+    width = [max(len(r[i]) for r in cells) for i in range(len(headers))]
+    lines = []
+    for k, r in enumerate(cells):
+        lines.append("  ".join(c.ljust(width[i]) if i == 0 else c.rjust(width[i])
+                               for i, c in enumerate(r)).rstrip())
+        if k == 0:
+            lines.append("  ".join("-" * w for w in width))
+    return "\n".join(lines)
+
+
+def report(result: dict) -> str:
+    """The benchmark's tables as plain text ("s/s": seconds per simulated second; "wall" and
+    "CPU" are wall time and CPU time of the measuring process)."""
+    out: list[str] = []
+    for section in (_header, _work_precision, _equal_accuracy, _core_steps, _fmu, _c_host,
+                    _cost, _memory_and_targets):
+        out += section(result)
+    return "\n".join(out)
+
+
+def _header(result: dict) -> list[str]:
+    """Title, machine, software, reference and error definition, cross-check."""
+    m, s = result["machine"], result["settings"]
+    out = [f"gearpair bench ({s['name']}), {m['date']}",
+           f"machine: {m['cpu']}, {m['cores']} cores ({m['usable_cores']} usable), "
+           f"{m['memory_gb']} GB; load average {m['load_average']} at start, "
+           f"{m.get('load_average_end')} at end",
+           f"software: {m['os']}, Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}, "
+           f"numba {m['numba']}, fmpy {m['fmpy']}, pythonfmu {m['pythonfmu']}; "
+           f"commit {m['commit']}",
+           f"total wall time {result['wall_s']:.0f} s", ""]
+    ref = result["reference"]
+    win = ", ".join(f"{r} {w:g} s" for r, w in s["windows"])
+    out += [f"Reference: fast core at rtol {ref['rtol']:g}, output every {ref['dt']:g} s, "
+            "from the static start at 3900 N.m, 100 r/min. Error = max|x - x_ref| / "
+            f"max|x_ref| over the common window ({win}); the fast core and the FMU run "
+            f"{s['horizon']:g} s ('whole run' error over all of it). Cost = time per "
+            "simulated second of the stepping loop (engine built, FMU instantiated before).",
+            ""]
+    if ref["cross_check"]:
+        out.append(table(
+            ["cross-check", "simulated s", "DTE diff", "force diff", "DOP853 wall s/s",
+             "fast wall s/s"],
+            [[f"{c['regime']}: {c.get('engine', 'DOP853')} vs fast, rtol {c['rtol']:g}",
+              _fmt(c["horizon_s"]),
+              _fmt(c["diff_dte"], ".1e"), _fmt(c["diff_force"], ".1e"),
+              _fmt(c["dop853_wall_per_sim_s"], ".0f"), _fmt(c["fast_wall_per_sim_s"])]
+             for c in ref["cross_check"]]))
+        out.append("")
+    return out
+
+
+def _work_precision(result: dict) -> list[str]:
+    """One work-precision table per regime."""
+    out: list[str] = []
+    for regime in REGIMES:
+        rows = [r for r in result["work_precision"] if r["regime"] == regime]
+        out.append(f"Work-precision, {regime} (friction {FRICTION_OF[regime]}):")
+        out.append(table(
+            ["method", "setting", "simulated s", "wall s/s", "CPU s/s", "DTE error",
+             "force error", "DTE err whole run"],
+            [[r["method"], r["setting"], _fmt(r["horizon_s"]), _fmt(r["wall_per_sim_s"]),
+              _fmt(r["cpu_per_sim_s"]), _fmt(r["err_dte"], ".1e"), _fmt(r["err_force"], ".1e"),
+              _fmt(r["err_dte_horizon"], ".1e")] if not r["error"] else
+             [r["method"], r["setting"], _fmt(r["horizon_s"]), "failed", "-", "-", "-", "-"]
+             for r in rows]))
+        out += [f"  {r['method']} {r['setting']} failed: {r['error']}" for r in rows
+                if r["error"]]
+        out.append("")
+    return out
+
+
+def _equal_accuracy(result: dict) -> list[str]:
+    """Cheapest setting per method at the target error, wall and CPU, and the fast core's
+    lead over scipy's solvers on the reference engine and over plain scipy."""
+    out: list[str] = []
+    methods = list(dict.fromkeys(r["method"] for r in result["work_precision"]))
+    acc = result["equal_accuracy"]
+    for suffix, what in (("", "wall"), ("_cpu", "CPU")):
+        key = "wall_per_sim_s" if not suffix else "cpu_per_sim_s"
+        out.append(f"Equal accuracy, {what} time: cheapest setting with DTE error <= "
+                   f"{TARGET_ERROR:g}, s/s:")
+
+        def cell(e, mm, key=key, suffix=suffix):
+            b = e["best" + suffix].get(mm)
+            return "not reached" if b is None else f"{b[key]:.3g} ({b['setting']})"
+
+        def ratio(e, kind, suffix=suffix):
+            x, m = e["ratio" + kind + suffix], e["fastest" + (kind or "_scipy") + suffix]
+            return "-" if x is None else f"{x:.0f} x ({m})"
+
+        rows = [[mm, *[cell(e, mm) for e in acc]] for mm in methods]
+        rows.append(["scipy on the reference engine / fast", *[ratio(e, "") for e in acc]])
+        rows.append(["plain scipy (benchmarks/) / fast", *[ratio(e, "_plain") for e in acc]])
+        out.append(table(["method", *[e["regime"] for e in acc]], rows))
+        out.append("")
+    note = (result.get("plain_scipy") or {}).get("note")
+    if note:
+        out += [note, ""]
+    return out
+
+
+def _core_steps(result: dict) -> list[str]:
+    """The fast core at 1e-3 s steps."""
+    s = result["settings"]
+    out: list[str] = []
+    out.append(f"Fast core at 1e-3 s steps ({s['step_horizon']:g} s simulated, best of "
+               f"{s['repeats']}):")
+    out.append("(grid: `simulate`, one compiled call for the whole run; per call: one "
+               "`advance` + `outputs` Python call per step, as an FMU master drives it)")
+    out.append(table(["regime", "rtol", "wall s/s grid", "CPU s/s grid", "wall s/s per call",
+                      "CPU s/s per call", "engine build s"],
+                     [[c["regime"], _fmt(c["rtol"]),
+                       _fmt(c["wall_per_sim_s"]) if not c["error"] else "failed",
+                       _fmt(c["cpu_per_sim_s"]), _fmt(c.get("calls_wall_per_sim_s")),
+                       _fmt(c.get("calls_cpu_per_sim_s")), _fmt(c["build_s"])]
+                      for c in result["core_steps"]]))
+    out += [f"  {c['regime']} rtol {c['rtol']:g} failed: {c['error']}"
+            for c in result["core_steps"] if c["error"]]
+    out.append("")
+    return out
+
+
+def _fmu(result: dict) -> list[str]:
+    """FMU at a 1e-3 s step against core and floor; one call's cost; start-up."""
+    s = result["settings"]
+    out: list[str] = []
+    fm = result.get("fmu")
+    if fm:
+        out.append(f"FMU through fmpy.simulate_fmu at a 1e-3 s step ({s['step_horizon']:g} s "
+                   f"simulated, best of {s['repeats']}) against the core (per call) and the "
+                   "no-op floor, "
+                   "s/s; 'FMU total' adds the initialization (instantiation excluded):")
+        for suffix, what in (("", "wall"), ("_cpu", "CPU")):
+            out.append(table(
+                ["regime", "rtol", f"core {what}", f"FMU {what}", "FMU total",
+                 f"floor {what}", "FMU/core", "(FMU-floor)/core",
+                 f"allowed {TARGET_FMU_FACTOR:g}xcore+floor", "met"],
+                [[st["regime"], _fmt(st["rtol"]), _fmt(st.get("core_per_sim_s" + suffix)),
+                  _fmt(st.get("fmu_per_sim_s" + suffix)),
+                  _fmt(st.get("fmu_total_per_sim_s" + suffix)),
+                  _fmt(st.get("floor_per_sim_s" + suffix)),
+                  _fmt(st.get("fmu_over_core" + suffix), ".2f"),
+                  _fmt(st.get("fmu_minus_floor_over_core" + suffix), ".2f"),
+                  _fmt(st.get("allowed_per_sim_s" + suffix)), _fmt(st.get("met" + suffix))]
+                 for st in fm["steps"]]))
+        out += [f"  {st['regime']} failed: {st['error']}" for st in fm["steps"] if st["error"]]
+        c = fm["calls"]
+
+        def us(key):
+            w, cpu = c[key + "_s"], c[key + "_cpu_s"]
+            return "failed" if w is None else f"{w * 1e6:.0f} us ({cpu * 1e6:.0f} us CPU)"
+
+        out.append(f"One setReal+doStep(1e-3 s)+getReal+getInteger call ({c['regime']}, "
+                   f"{c['n']} calls): GearPair {us('gearpair')}, no-op {us('noop')}; the "
+                   f"engine's own advance+outputs {us('engine')}.")
+        if c["error"]:
+            out.append(f"  failed: {c['error']}")
+        out.append("")
+    if result.get("fmu_error"):
+        out += [f"FMU section failed: {result['fmu_error']}", ""]
+    st = result.get("startup")
+    if st:
+        out.append("FMU first instantiation + initialization + first step (fresh process):")
+        out.append(table(
+            ["numba cache", "instantiate s", "initialize s", "first step s", "total s"],
+            [[k, _fmt(v["instantiate_s"]), _fmt(v["initialize_s"]), _fmt(v["first_step_s"]),
+              _fmt(v["total_s"])] for k, v in (("empty (compile)", st["compile"]),
+                                               ("warm (cached)", st["cached"]))]))
+        out.append("")
+    return out
+
+
+def _c_host(result: dict) -> list[str]:
+    """The FMU's per-step cost in a C host and in fmpy, and its first start in the C host."""
+    ch = result.get("c_host")
+    if not ch:
+        return []
+    if ch["note"]:
+        return [ch["note"], ""]
+    out = [f"FMU per step in a C host (benchmarks/fmi2_bench_host.c) and in fmpy, the loop of a "
+           f"master: set {', '.join(ch['inputs'])}; doStep; get {', '.join(ch['outputs'])} "
+           f"({ch['regime']} at the default point, rtol {ch['rtol']:g}, best of {ch['blocks']}"
+           f" blocks of {ch['n']} steps), us per step; engine: its own advance + outputs in "
+           "this process; slave's own = C host GearPair - no-op - engine:"]
+    for clk, what in (("", "wall"), ("_cpu", "CPU")):
+        out.append(table(
+            ["step s", f"C GearPair {what}", "C no-op", "fmpy GearPair", "fmpy no-op",
+             "engine", "slave's own (C)", "C host s/s"],
+            [[_fmt(r["step"]), *[_fmt(r.get(f"{k}{clk}_us"), ".1f") for k in (
+                "c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine",
+                "c_slave_own")], _fmt(r.get("c_per_sim_s")) if not clk else "-"]
+             if not r["error"] else [_fmt(r["step"]), "failed", *["-"] * 6]
+             for r in ch["steps"]]))
+    out += [f"  step {r['step']:g} failed: {r['error']}" for r in ch["steps"] if r["error"]]
+    status = {k: v for r in ch["steps"] for k, v in r.get("exit_status", {}).items()}
+    if status:
+        out.append("C host exit status: " + ", ".join(
+            f"{k} {exit_note(v)}" for k, v in status.items()) + " (each host prints and "
+            "flushes its result before it frees the instance)")
+    st = ch.get("startup")
+    if st and st.get("error"):
+        out.append(f"C host first start failed: {st['error']}")
+    elif st:
+        out.append("FMU first start in the C host (fresh process: instantiate, initialize, "
+                   "first 1e-3 s step), caches = NUMBA_CACHE_DIR and XDG_CACHE_HOME:")
+        out.append(table(
+            ["caches", "instantiate s", "initialize s", "first step s", "total s", "exit"],
+            [[k, _fmt(v["instantiate_s"]), _fmt(v["initialize_s"]), _fmt(v["first_step_s"]),
+              _fmt(v["total_s"]), exit_note(v["exit_status"])]
+             for k, v in (("empty", st["empty"]), ("warm", st["warm"]))]))
+    out.append("")
+    return out
+
+
+def _cost(result: dict) -> list[str]:
+    """Cost of the shipped scenes and the effect ladder."""
+    out: list[str] = []
+    cost = result.get("cost")
+    if cost:
+        out.append(f"Cost of the shipped scenes (fast engine, first {cost['t_end']:g} s, "
+                   "their own step and rtol):")
+        out.append(table(["scene", "simulated s", "step s", "dof", "stiffness", "friction",
+                          "wall s/s", "CPU s/s"],
+                         [[r["scene"], _fmt(r["t_end"]), _fmt(r["step"]), r["dof"],
+                           r["stiffness"], r["friction"],
+                           "failed" if r["error"] else _fmt(r["wall_per_sim_s"]),
+                           _fmt(r["cpu_per_sim_s"])] for r in cost["scenes"]]))
+        out += [f"  {r['scene']} failed: {r['error']}" for r in cost["scenes"] if r["error"]]
+        out.append("")
+        out.append(f"Effect ladder (fast engine, rtol {cost['rtol']:g}, 3900 N.m, 100 r/min, "
+                   f"{cost['t_end']:g} s simulated), s/s and ratio to stick-slip:")
+        heads, cols = ["rung"], []
+        for run, what in (("step_1e-3", "1e-3 s steps"), ("out_1e-4", "output 1e-4 s")):
+            for clk in ("wall", "cpu"):
+                heads += [f"{clk} {what}", "ratio"]
+                cols += [f"{clk}_{run}"]
+        heads += ["steps/s", "rejected/s", "us/step"]
+        out.append(table(heads, [[r["rung"], *[x for k in cols for x in (
+            _fmt(r[k]), _fmt(r["ratio_" + k], ".2f"))], _fmt(r.get("steps_per_sim_s"), ".3g"),
+            _fmt(r.get("rejected_per_sim_s"), ".3g"), _fmt(r.get("us_per_step"))]
+            for r in cost["ladder"]]))
+        out += [f"  {r['rung']} failed: {r['error']}" for r in cost["ladder"] if r["error"]]
+        out.append("")
+    return out
+
+
+def _memory_and_targets(result: dict) -> list[str]:
+    """Memory line and the targets table."""
+    out: list[str] = []
+    mem = result.get("memory")
+    if mem:
+        out.append(f"Memory: {mem['t_end']:g} s simulated, recorded every {mem['dt']:g} s "
+                   f"({mem['samples']} samples, {mem['trajectory_mb']:.0f} MB of arrays): peak "
+                   f"RSS {mem['peak_rss_mb']:.0f} MB (after imports {mem['baseline_rss_mb']:.0f}"
+                   f" MB), {mem['wall_s']:.0f} s of wall time.")
+        out.append("")
+    out.append("Targets (measured in wall time, the target's measure, and in CPU time):")
+    out.append(table(["target", "wall", "met", "CPU", "met (CPU)", "short by (wall)"],
+                     [[t["target"], _fmt(t["measured"]), _fmt(t["met"]),
+                       _fmt(t["measured_cpu"]), _fmt(t["met_cpu"]), _fmt(t["short_by"])]
+                      for t in result["targets"]]))
+    return out
+
+
+
+def jsonable(x):
+    """``x`` with numpy scalars as Python numbers and NaN/inf as None (strict JSON)."""
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    return x
+

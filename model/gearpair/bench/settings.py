@@ -1,0 +1,149 @@
+"""What the benchmark runs: regimes, targets, the effect ladder and the presets."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[3]  # repository root (build_fmu.py, examples/)
+NOOP_SCRIPT = ROOT / "examples" / "bench_noop" / "GearPairNoop.py"
+SCENES_DIR = ROOT / "examples" / "scenes"
+# the plain scipy implementation a user would write: in the repository, not in the package
+PLAIN_SCRIPT = ROOT / "benchmarks" / "plain_scipy.py"
+HOST_SOURCE = ROOT / "benchmarks" / "fmi2_bench_host.c"  # the C timing host
+PLAIN_PREFIX = "plain "  # method names of its rows: "plain DOP853", ...
+
+REGIMES = ("no_friction", "sliding", "stick_slip")
+FRICTION_OF = {"no_friction": "off", "sliding": "nominal", "stick_slip": "stick_slip"}
+SCIPY_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
+TARGET_ERROR = 1e-6  # DTE relative error of "equal accuracy"
+TARGET_SPEEDUP = 50.0  # fast core against the fastest scipy method
+TARGET_FMU_FACTOR = 1.2  # FMU <= factor * core + floor at a 1e-3 s step
+TARGET_STICK_SLIP = 0.1  # s of wall time per simulated second
+TARGET_MEMORY_MB = 500.0
+TARGET_SLAVE_OWN_US = 10.0  # C host, 1e-4 s step: GearPair - no-op - engine per step (#16.4)
+TARGET_FIRST_START_S = 5.0  # first instantiation with empty caches (#16.3)
+TARGET_LADDER = 10.0  # torsional constant stiffness at least this much cheaper than stick-slip
+SCIPY_MAX_EVENTS = 1000  # switches per communication step before a scipy run counts as stalled
+LADDER = (
+    ("torsional, constant stiffness", dict(dof="torsional", stiffness="constant",
+                                           friction="off")),
+    ("torsional, time-varying", dict(dof="torsional", stiffness="potential_energy",
+                                     friction="off")),
+    ("6-DOF, time-varying", dict(dof="full", stiffness="potential_energy", friction="off")),
+    ("6-DOF + sliding friction", dict(dof="full", stiffness="potential_energy",
+                                      friction="nominal")),
+    ("6-DOF + stick-slip", dict(dof="full", stiffness="potential_energy",
+                                friction="stick_slip")),
+)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the benchmark runs (simulated times in s).
+
+    Attributes
+    ----------
+    name : preset name
+    horizon : simulated time of the fast-core and FMU work-precision runs
+    windows : per regime, the simulated time of the scipy runs; errors of every method are
+        compared over this common window (the stick-slip one contains the first stick at
+        about 0.015 s)
+    dt : output grid of the engine runs and of the reference
+    fast_rtols : tolerances of the fast core
+    fast_steps : communication steps of the fast core: ``dt`` (the common grid, the row
+        ``fast``) and coarser ones (rows ``fast (step h)``, sampled every h)
+    fast_alt_methods : other Runge-Kutta pairs of the fast core than its default DOP853
+        (rows ``fast dp5``, on the common grid), to show what the choice of method buys
+    scipy_rtols : per scipy method, its tolerances (run as the reference engine)
+    plain_rtols : per scipy method, the tolerances of the plain scipy implementation
+        (benchmarks/plain_scipy.py, rows ``plain <method>``, over ``horizon``)
+    run_budget : wall-time limit (s) of one engine run of the work-precision table; a run
+        that exceeds it is reported as failed
+    ref_rtol : tolerance of the reference (fast core)
+    check_horizon : simulated time of the cross-check of the reference against scipy DOP853
+        at ``ref_rtol`` (the reference engine's); 0 skips it. The plain scipy implementation
+        is cross-checked at ``ref_rtol`` over each regime's window
+    check_regimes : regimes cross-checked
+    fmu_steps, fmu_rtols : communication steps and ``rtol`` parameter of the FMU rows
+    step_horizon : simulated time of the costs at a 1e-3 s step (core, FMU, floor)
+    calls : number of set+doStep+get calls timed per FMU
+    host_steps : communication steps of the C host and fmpy loops (2 inputs set, doStep,
+        4 outputs got)
+    host_n, host_blocks : steps per timed block and blocks (the best block counts)
+    repeats : timed runs of the cheap measurements (the best counts)
+    cost_t_end : simulated time of each scene and ladder run
+    ladder_repeats : rounds of the effect ladder (each runs every rung once; the best of
+        each rung counts). A round costs about half a second, and neighbouring rungs differ
+        by a few per cent, so it takes more rounds than ``repeats`` to rank them
+    startup : measure the first instantiation with an empty and a warm numba cache (fmpy)
+        and with empty and warm caches (C host)
+    memory : measure the peak RSS of a ``memory_t_end`` run recorded every 1e-4 s
+    fmu : run the FMU sections (needs pythonfmu and fmpy)
+    """
+
+    name: str = "default"
+    horizon: float = 0.1
+    windows: tuple[tuple[str, float], ...] = (("no_friction", 0.005), ("sliding", 0.005),
+                                              ("stick_slip", 0.02))
+    dt: float = 1e-4
+    fast_rtols: tuple[float, ...] = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+    fast_steps: tuple[float, ...] = (1e-4, 1e-3)
+    fast_alt_methods: tuple[str, ...] = ("dp5",)
+    run_budget: float = 300.0
+    scipy_rtols: tuple[tuple[str, tuple[float, ...]], ...] = (
+        ("RK45", (1e-5, 1e-6, 1e-7)), ("DOP853", (1e-5, 1e-6, 1e-7)),
+        ("Radau", (1e-4, 1e-5)), ("LSODA", (1e-5, 1e-6)))
+    plain_rtols: tuple[tuple[str, tuple[float, ...]], ...] = (
+        ("RK45", (1e-5, 1e-6, 1e-7, 1e-8)), ("DOP853", (1e-5, 1e-6, 1e-7, 1e-8, 1e-9)),
+        ("Radau", (1e-5, 1e-6)), ("LSODA", (1e-5, 1e-6, 1e-7, 1e-8)))
+    ref_rtol: float = 1e-12
+    check_horizon: float = 0.002
+    check_regimes: tuple[str, ...] = REGIMES
+    fmu_steps: tuple[float, ...] = (1e-5, 1e-4, 1e-3)
+    fmu_rtols: tuple[float, ...] = (1e-8,)
+    step_horizon: float = 1.0
+    calls: int = 2000
+    host_steps: tuple[float, ...] = (1e-4, 1e-3)
+    host_n: int = 2000
+    host_blocks: int = 3
+    repeats: int = 3
+    cost_t_end: float = 0.3
+    ladder_repeats: int = 9
+    startup: bool = True
+    memory: bool = False
+    memory_t_end: float = 100.0
+    fmu: bool = True
+
+    def window(self, regime: str) -> float:
+        """Simulated time of the scipy runs (and of the common error window) of a regime."""
+        return dict(self.windows)[regime]
+
+
+DEFAULT = Settings()
+QUICK = Settings(
+    name="quick", horizon=0.004, windows=tuple((r, 0.001) for r in REGIMES),
+    fast_rtols=(1e-6, 1e-9),
+    scipy_rtols=(("RK45", (1e-5, 1e-6)), ("DOP853", (1e-5, 1e-6)), ("Radau", (1e-5,)),
+                 ("LSODA", (1e-5,))),
+    plain_rtols=(("RK45", (1e-6,)), ("DOP853", (1e-6, 1e-9))),
+    check_horizon=0.0005, check_regimes=("stick_slip",), step_horizon=0.02, calls=150,
+    host_n=100, host_blocks=2,
+    repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0)
+FULL = Settings(
+    name="full", windows=tuple((r, 0.02) for r in REGIMES),
+    fast_rtols=(1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11),
+    scipy_rtols=(("RK45", (1e-4, 1e-5, 1e-6, 1e-7, 1e-8)),
+                 ("DOP853", (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)),
+                 ("Radau", (1e-4, 1e-5, 1e-6, 1e-7)), ("LSODA", (1e-4, 1e-5, 1e-6, 1e-7))),
+    check_horizon=0.02, fmu_rtols=(1e-6, 1e-8), step_horizon=2.0, calls=5000, repeats=5,
+    cost_t_end=0.5, ladder_repeats=15, memory=True)
+PRESETS = {"quick": QUICK, "default": DEFAULT, "full": FULL}
+
+Progress = Callable[[str], None]
+
+
+def _quiet(msg: str) -> None:
+    pass
+

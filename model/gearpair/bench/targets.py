@@ -1,0 +1,108 @@
+"""The targets of the issues: measured value, met or not, short by how much."""
+
+from __future__ import annotations
+
+from .settings import (
+    TARGET_ERROR,
+    TARGET_FIRST_START_S,
+    TARGET_FMU_FACTOR,
+    TARGET_LADDER,
+    TARGET_MEMORY_MB,
+    TARGET_SLAVE_OWN_US,
+    TARGET_SPEEDUP,
+    TARGET_STICK_SLIP,
+)
+from .work_precision import accurate_rtol
+
+
+def _target(what: str, wall, cpu, limit: float, fmt: str, higher_is_better: bool = False,
+            error: str | None = None) -> dict:
+    """A target row: measured value in wall and CPU time, met or not, short by how much."""
+    if error or wall is None:
+        return {"target": what, "measured": f"run failed: {error}", "measured_cpu": None,
+                "met": None, "met_cpu": None, "short_by": None}
+
+    def ok(x):
+        return None if x is None else (x >= limit if higher_is_better else x <= limit)
+
+    factor = (limit / wall) if higher_is_better else (wall / limit)
+    return {"target": what, "measured": format(wall, fmt),
+            "measured_cpu": None if cpu is None else format(cpu, fmt),
+            "met": ok(wall), "met_cpu": ok(cpu),
+            "short_by": None if ok(wall) else f"factor {factor:.2f}"}
+
+
+def targets(result: dict) -> list[dict]:
+    """Each issue target: the measured value in wall time (the target's measure) and in CPU
+    time (steadier on a shared machine), whether it is met and by what factor it is not."""
+    out = []
+    for kind, whose in (("", "scipy on the reference engine"),
+                        ("_plain", "plain scipy, benchmarks/")):
+        for e in result["equal_accuracy"]:
+            if kind and e.get("ratio_plain") is None and (result.get("plain_scipy") or {}).get(
+                    "note"):
+                continue  # no plain rows (installed package): the report says why
+            what = (f"fast core >= {TARGET_SPEEDUP:g} x the fastest scipy method ({whose}) at "
+                    f"DTE error <= {TARGET_ERROR:g} ({e['regime']}; x)")
+            out.append(_target(what, e["ratio" + kind], e["ratio" + kind + "_cpu"],
+                               TARGET_SPEEDUP, ".0f", True,
+                               None if e["ratio" + kind] else "not reached by a method"))
+    for st in (result.get("fmu") or {}).get("steps", []):
+        what = (f"FMU at 1e-3 s <= {TARGET_FMU_FACTOR:g} x core + floor ({st['regime']}, "
+                f"rtol {st['rtol']:g}; FMU / allowed)")
+        if st["error"]:
+            out.append(_target(what, None, None, 1.0, ".2f", error=st["error"]))
+            continue
+        out.append(_target(what, st["fmu_per_sim_s"] / st["allowed_per_sim_s"],
+                           st["fmu_per_sim_s_cpu"] / st["allowed_per_sim_s_cpu"], 1.0, ".2f"))
+    out += _host_targets(result.get("c_host"))
+    acc = accurate_rtol(result["work_precision"], "stick_slip")
+    for c in result["core_steps"]:
+        if c["regime"] != "stick_slip":
+            continue
+        tag = ", the loosest with DTE error <= 1e-6" if c["rtol"] == acc else ""
+        what = (f"stick-slip: 1 simulated s in <= {TARGET_STICK_SLIP:g} s, fast core at "
+                f"1e-3 s steps, rtol {c['rtol']:g}{tag} (s)")
+        out.append(_target(what, c["wall_per_sim_s"], c["cpu_per_sim_s"], TARGET_STICK_SLIP,
+                           ".3f", error=c["error"]))
+    mem = result.get("memory")
+    if mem:
+        out.append(_target(f"{mem['t_end']:g} s recorded every {mem['dt']:g} s: peak RSS <= "
+                           f"{TARGET_MEMORY_MB:g} MB (MB)", mem["peak_rss_mb"], None,
+                           TARGET_MEMORY_MB, ".0f"))
+    cost = result.get("cost")
+    if cost:
+        for run, what in (("step_1e-3", "1e-3 s steps"), ("out_1e-4", "output every 1e-4 s")):
+            w, c = cost["checks"]["wall_" + run], cost["checks"]["cpu_" + run]
+            row = _target(f"effect ladder, {what}: stick-slip / torsional constant stiffness "
+                          f">= {TARGET_LADDER:g} (x)", w["stick_slip_over_torsional_constant"],
+                          c["stick_slip_over_torsional_constant"], TARGET_LADDER, ".1f", True,
+                          None if w["stick_slip_over_torsional_constant"] else "a rung failed")
+            out.append(row)
+            out.append({"target": f"effect ladder, {what}: each added effect costs more",
+                        "measured": str(w["increasing"]), "measured_cpu": str(c["increasing"]),
+                        "met": w["increasing"], "met_cpu": c["increasing"], "short_by": None})
+    return out
+
+
+
+def _host_targets(ch: dict | None) -> list[dict]:
+    """Issue #16: the slave's own work per step in a C host at a 1e-4 s step (GearPair -
+    no-op - engine), and the first start with empty caches."""
+    if not ch or ch["note"]:
+        return []
+    out = []
+    for r in ch["steps"]:
+        if r["step"] != 1e-4:
+            continue
+        what = (f"C host at 1e-4 s: slave's own work per step (GearPair - no-op - engine) "
+                f"<= {TARGET_SLAVE_OWN_US:g} us (us)")
+        out.append(_target(what, r.get("c_slave_own_us"), r.get("c_slave_own_cpu_us"),
+                           TARGET_SLAVE_OWN_US, ".1f", error=r["error"]))
+    st = ch.get("startup")
+    if st:
+        what = (f"first start of the FMU with empty caches (C host) <= "
+                f"{TARGET_FIRST_START_S:g} s (s)")
+        out.append(_target(what, None if st["error"] else st["empty"]["total_s"], None,
+                           TARGET_FIRST_START_S, ".1f", error=st["error"]))
+    return out

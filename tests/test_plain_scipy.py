@@ -1,0 +1,68 @@
+"""The plain scipy implementation of benchmarks/plain_scipy.py against the fast engine.
+
+It is the bench's "what a user would write" row, so its numbers are only worth quoting if it
+integrates the same model: it must agree with the fast engine to its tolerance, through the
+pair entries/exits and the sticks of the first 20 ms at the paper's point.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gearpair.effects import Effects
+from gearpair.results import simulate
+
+PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "plain_scipy.py"
+
+
+@pytest.fixture(scope="module")
+def plain():
+    spec = importlib.util.spec_from_file_location("plain_scipy_under_test", PATH)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # its dataclasses look their module up there
+    spec.loader.exec_module(mod)
+    yield mod
+    sys.modules.pop(spec.name, None)
+
+
+def _fast(friction: str, t_end: float) -> dict:
+    traj = simulate(engine="fast", effects=Effects(friction=friction), t_end=t_end, dt=1e-4,
+                    rtol=1e-12)
+    return {k: np.asarray(traj[k], dtype=float) for k in ("dte", "mesh_force")}
+
+
+@pytest.mark.parametrize("friction", ["off", "nominal", "stick_slip"])
+def test_agrees_with_the_fast_engine(plain, friction):
+    # 20 ms: one pair exit (13.6 ms), one entry (18.2 ms), for stick-slip the first stick
+    t_end = 0.02
+    ref = _fast(friction, t_end)
+    model = plain.PlainGearPair(friction, rtol=1e-10)
+    got = model.simulate(t_end, 1e-4)
+    for name in ("dte", "mesh_force"):
+        assert np.all(np.isfinite(got[name]))
+        err = np.max(np.abs(got[name] - ref[name])) / np.max(np.abs(ref[name]))
+        assert err < 1e-8, (name, err)
+    if friction == "stick_slip":
+        # entering the stick at 14.9 ms, leaving it, entering the next at 17.4 ms
+        assert model.n_events >= 3
+    else:
+        assert model.n_events == 0
+
+
+def test_error_follows_the_tolerance(plain):
+    ref = _fast("stick_slip", 0.02)
+    errs = []
+    for rtol in (1e-5, 1e-8):
+        got = plain.PlainGearPair("stick_slip", rtol=rtol).simulate(0.02, 1e-4)
+        errs.append(np.max(np.abs(got["dte"] - ref["dte"])) / np.max(np.abs(ref["dte"])))
+    assert errs[1] < 0.01 * errs[0] and errs[1] < 1e-6, errs
+
+
+def test_bad_friction_law_is_refused(plain):
+    with pytest.raises(ValueError, match="friction"):
+        plain.PlainGearPair("sticky")

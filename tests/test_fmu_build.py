@@ -264,10 +264,9 @@ def test_bad_communication_point_and_step_size_are_refused(md, unzipdir):
     ({"z1": 5}, ("z1", "[12, 400]")),
     ({"mu_static": 1.5}, ("mu_static", "[0, 1]")),
     ({"stribeck_velocity": -0.1}, ("stribeck_velocity", "[0, 1] m/s")),
-    # combinations: below the kinetic mu, a law without static friction, the fast engine
+    # combinations: below the kinetic mu, a law without static friction
     ({"mu_static": 0.01}, ("mu_static", "[mu, 1] = [0.02, 1]")),
     ({"mu_static": 0.04, "friction_law": 1, "engine": 1}, ("mu_static", "'nominal'")),
-    ({"mu_static": 0.04}, ("mu_static", "FMU: engine = 1")),
 ])
 def test_out_of_range_parameter_is_refused(md, unzipdir, start, words):
     g = Instance(md, unzipdir)

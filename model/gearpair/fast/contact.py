@@ -42,6 +42,7 @@ from .layout import (
     P_L,
     P_MINV,
     P_MU,
+    P_MUS,
     P_PB,
     P_PER,
     P_RATIO,
@@ -50,6 +51,7 @@ from .layout import (
     P_S1A,
     P_S1S2,
     P_VEPS,
+    P_VS,
     S_COMP,
     S_DDELTA,
     S_DELTA,
@@ -73,7 +75,7 @@ from .layout import (
 )
 
 
-@jit_inline
+@jit
 def sgn(x, fallback):
     if x > 0.0:
         return 1.0
@@ -82,7 +84,7 @@ def sgn(x, fallback):
     return fallback
 
 
-@jit_inline
+@jit
 def wrap(x, per):
     """x mod per in [0, per) (numpy's mod for a positive divisor)."""
     r = x - per * math.floor(x * (1.0 / per))
@@ -93,7 +95,7 @@ def wrap(x, per):
     return r
 
 
-@jit_inline
+@jit
 def pair_xi(par, s, j):
     """Position from A of tracked pair j held in contact at mesh travel s (Model.contact)."""
     per, L = par[P_PER], par[P_L]
@@ -228,12 +230,22 @@ def mesh_forces(md, wk, pc, s, s_idx, y):
 
 
 @jit_inline
+def sliding_mu(par, v):
+    """Coefficient of sliding friction at sliding velocity v (`equations.sliding_coefficient`):
+    mu, or with a Stribeck velocity v_s, mu + (mu_static - mu) exp(-(v / v_s)^2)."""
+    if par[P_VS] == 0.0:
+        return par[P_MU]
+    r = v / par[P_VS]
+    return par[P_MU] + (par[P_MUS] - par[P_MU]) * math.exp(-(r * r))
+
+
+@jit_inline
 def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
     """Normal forces, sliding velocities (Eqs. (12)-(13)) and the friction of the slipping
     pairs by the friction law; returns the number of stuck pairs (their friction is
     `static_friction`'s)."""
     mp, pw, sc = md.par, wk.pair, wk.scal
-    irb1, irb2, speed, mu = mp[P_IRB1], mp[P_IRB2], pc.speed, mp[P_MU]
+    irb1, irb2, speed, mu = mp[P_IRB1], mp[P_IRB2], pc.speed, mp[P_MU]  # kinetic mu
     fric = md.flag[I_FRIC]
     full = md.flag[I_SLIDE] == 1
     delta = sc[S_DELTA]
@@ -259,13 +271,13 @@ def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
             # pitch-point boundary nom is a rounding error from zero, its sign maybe the old)
             f = mu * abs(normal) * sgn(nom - speed * (1.0 + mp[P_RATIO]) * (s_idx - s), 0.0)
         elif fric == FR_REG:
-            f = mu * abs(normal) * math.tanh(v / mp[P_VEPS])
+            f = sliding_mu(mp, v) * abs(normal) * math.tanh(v / mp[P_VEPS])
         elif fric == FR_STICK:
             if stuck[j] != 0:
                 pw[W_STK, i] = 1.0
                 ns += 1
             else:
-                f = mu * abs(normal) * dirs[j]
+                f = sliding_mu(mp, v) * abs(normal) * dirs[j]
         pw[W_F, i] = f
         if f != 0.0:
             sc[S_F + 0] -= f
@@ -414,7 +426,7 @@ def event_values(md, wk, pc, dirs, g):
                 lam = abs(pw[W_F, i])
                 if md.flag[I_TIE] == 1:
                     lam = min(lam, abs(pw[W_LAMEX, i]))
-                g[n] = md.par[P_MU] * abs(pw[W_N, i]) - lam
+                g[n] = md.par[P_MUS] * abs(pw[W_N, i]) - lam  # Eq. (14), static mu
             else:
                 g[n] = dirs[wk.active[i]] * pw[W_V, i]
             n += 1

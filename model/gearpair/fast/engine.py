@@ -71,6 +71,7 @@ from .layout import (
     P_MAXSTEP,
     P_MINV,
     P_MU,
+    P_MUS,
     P_PB,
     P_PER,
     P_RATIO,
@@ -82,6 +83,7 @@ from .layout import (
     P_SPACING,
     P_TTOL,
     P_VEPS,
+    P_VS,
     P_XIP,
     R_FSTG,
     S_COMP,
@@ -189,6 +191,7 @@ def model_constants(m: Model, rtol: float, max_step: float, t_tol: float) -> np.
     mp[P_IRB1], mp[P_IRB2], mp[P_IPER] = 1.0 / m.rb1, 1.0 / m.rb2, 1.0 / g.period_length
     mp[P_RTOL], mp[P_MAXSTEP], mp[P_TTOL] = rtol, max_step, float(t_tol)
     mp[P_BACK] = 0.0 if fx.backlash is None else float(fx.backlash)
+    mp[P_MUS], mp[P_VS] = m.mu_static, m.stribeck_velocity
     return mp
 
 
@@ -283,9 +286,6 @@ class FastEngine(Engine):
         if not (1e-14 <= rtol <= 1e-2):
             raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
         m = self.model = Model.build(params, effects)
-        if m.mu_static != m.mu or m.effects.stribeck_velocity is not None:
-            raise ValueError("mu_static (other than mu) and stribeck_velocity are not in the "
-                             "fast engine yet; use engine=\"reference\" (FMU: engine = 1)")
         self.rtol = float(rtol)
         self.atol = SCALE * rtol if opts.atol is None else np.full(N_Y, float(opts.atol))
         max_step = opts.max_step

@@ -24,8 +24,8 @@ import numpy as np
 P_MINV, P_C, P_KB = 0, 6, 12  # 6 each: inverse masses, support damping, support stiffness
 (P_RB1, P_RB2, P_RATIO, P_CM, P_MU, P_VEPS, P_S1A, P_S1S2, P_PB, P_L, P_PER, P_XIP, P_KMEAN,
  P_RTOL, P_MAXSTEP, P_TTOL, P_DX, P_INVDX, P_SPACING, P_IRB1, P_IRB2, P_IPER,
- P_BACK) = range(18, 41)
-N_MP = 41
+ P_BACK, P_MUS, P_VS) = range(18, 43)
+N_MP = 43  # P_MUS: static coefficient mu_static; P_VS: Stribeck velocity (0: none)
 # -- ModelData.flag: int flags ----------------------------------------------------------------
 (I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB, I_BACK,
  I_TORS, I_LTI, I_METHOD, I_NIX) = range(15)

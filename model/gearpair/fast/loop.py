@@ -330,7 +330,7 @@ def next_boundary(md, wk, hs, noff, span, last_b):
     return tb, ib, bb, False
 
 
-@jit_inline
+@jit
 def advance(md, wk, hs, t_end, torque, speed):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
     st, summ = hs.clock, wk.summary

@@ -18,7 +18,7 @@ from .layout import (
     P_IRB1,
     P_IRB2,
     P_MINV,
-    P_MU,
+    P_MUS,
     P_RB1,
     T_BACK,
     T_S,
@@ -120,14 +120,14 @@ def switch(md, wk, pc, hs, label, s):
     lam_e = pw[W_LAMEX, i]
     if md.flag[I_TIE] == 1:
         lam = min(lam, abs(lam_e))
-    if lam <= md.par[P_MU] * abs(pw[W_N, i]):
+    if lam <= md.par[P_MUS] * abs(pw[W_N, i]):  # the static coefficient bounds the stick
         stuck[j] = 1
         y[6 + 3] += pair_v(md, s, y, pc.speed, j)  # d v_j / d x2' = -1: v_j -> 0
     else:
         dirs[j] = sgn(lam_e, 1.0)
 
 
-@jit_inline
+@jit
 def kinetic(par, y):
     """Kinetic energy 0.5 q'^T M q' (J)."""
     e = 0.0
@@ -156,7 +156,7 @@ def stick_impulse(md, wk, hs, i, h):
               + mp[P_MINV + 5] * w5 * w5)
     else:
         S = -(mp[P_MINV] + mp[P_MINV + 3])
-    if abs(v) <= mp[P_MU] * abs(pw[W_N, i]) * h * abs(S):
+    if abs(v) <= mp[P_MUS] * abs(pw[W_N, i]) * h * abs(S):
         lam = -v / S
         ke0 = kinetic(mp, y)
         y[6] -= tr * mp[P_MINV] * lam

@@ -249,7 +249,7 @@ def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
     fric = md.flag[I_FRIC]
     full = md.flag[I_SLIDE] == 1
     delta = sc[S_DELTA]
-    ns = 0
+    ns = np.int64(0)  # typed, not a literal: no second compile of its callees
     for i in range(pc.nact):
         j = wk.active[i]
         s1m, s2m = pw[W_S1M, i], pw[W_S2M, i]
@@ -342,7 +342,7 @@ def static_friction(md, wk, pc, y, ns):
     mp, pw, sc, Sm = md.par, wk.pair, wk.scal, wk.solve
     rb1, rb2 = mp[P_RB1], mp[P_RB2]
     static_friction_system(md, wk, pc, y, ns)
-    solve_small(Sm, ns, 2)
+    solve_small(Sm, ns, Sm.shape[1] - Sm.shape[0])  # 2 right-hand sides
     ra = 0
     for i in range(pc.nact):
         if pw[W_STK, i] == 0.0:

@@ -432,8 +432,9 @@ class FastEngine(Engine):
         self._stale()
         advance_entry(*self._args, float(t_end), float(torque), float(speed))
         self._raise_failure()
+        self._o_fresh = True  # advance_entry left the outputs in wk.outputs
         h = t_end - t_start
-        o = self.output_values()
+        o = self._wk.outputs
         self._last = (t_start, float(t_end))
         return ((st[T_STICK] - t_stick0) / h, (st[T_SEP] - t_sep0) / h,
                 max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]),

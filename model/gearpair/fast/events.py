@@ -265,7 +265,7 @@ def refine(md, wk, pc, hs, sp, nf, e, bracket):
     a, b = bracket
     ga, gb = wk.gprev[e], wk.g[e]
     tol_th = (md.par[P_TTOL] + 8.0 * EPS * abs(sp.t)) / sp.hh
-    side = 0
+    side = np.int64(0)
     for _it in range(200):
         if b - a <= tol_th:
             break
@@ -299,7 +299,7 @@ def locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit):
     """Refine every falling function on the interpolant; at the earliest, move the state
     there, end the piece and switch."""
     best_th = th_hit
-    best_e = -1
+    best_e = np.int64(-1)
     for e in range(n_events(md, pc.nact, pc.cs)):
         if not (wk.gprev[e] > 0.0 and wk.g[e] <= 0.0):
             continue

@@ -469,7 +469,12 @@ def reset_settle(md, wk, hs):
 # -- entry points from Python: plain tuples in, named records inside ------------------------
 @jit
 def advance_entry(md, wk, hs, t_end, torque, speed):
-    advance(ModelData(*md), Work(*wk), HybridState(*hs), t_end, torque, speed)
+    """`advance`, then the outputs at the new state into wk.outputs unless it failed (the
+    FMU reads them every step: one call from Python instead of two)."""
+    m, w, h = ModelData(*md), Work(*wk), HybridState(*hs)
+    advance(m, w, h, t_end, torque, speed)
+    if w.summary[O_STATUS] == STATUS_OK:
+        outputs_now(m, w, h)
 
 
 @jit

@@ -158,7 +158,7 @@ def pade66(X, E, S):
         for j in range(NZ):
             Wd[i, j] = V[i, j]
             Wd[i, NZ + j] = E[i, j]
-    solve_small(Wd, NZ, NZ)
+    solve_small(Wd, Wd.shape[0], Wd.shape[0])
     for i in range(NZ):
         for j in range(NZ):
             E[i, j] = Wd[i, NZ + j]
@@ -229,9 +229,8 @@ def lti_matrix(md, wk, pc, hs, A):
     for i in range(NZ):
         for j in range(NZ):
             A[i, j] = 0.0
-    probe_column(md, wk, pc, hs, Z_ONE, A)
-    for c in range(Z_ONE):
-        probe_column(md, wk, pc, hs, c, A)
+    for k in range(-1, Z_ONE):  # the affine part (column Z_ONE) first
+        probe_column(md, wk, pc, hs, Z_ONE if k < 0 else k, A)
     A[Z_IU2, 5] = 1.0
 
 
@@ -452,14 +451,14 @@ def lti_locate(md, wk, pc, hs, lp, t, tn):
     z, zc, gc, E = Lv[0], Lv[3], Lv[4], Lm[L_SCRATCH + 9]
     h = tn - t
     best_tau = h
-    best_e = -1
+    best_e = np.int64(-1)
     tol = md.par[P_TTOL] + 8.0 * EPS * abs(t)
     for e in range(n_events(md, pc.nact, pc.cs)):
         if not (wk.gprev[e] > 0.0 and wk.g[e] <= 0.0):
             continue
         a, ga = 0.0, wk.gprev[e]
         b, gb = h, wk.g[e]
-        side = 0
+        side = np.int64(0)
         for _it in range(200):
             if b - a <= tol:
                 break
@@ -527,7 +526,7 @@ def lti_march(md, wk, pc, hs, lp, tb):
         if lp.quiet:
             # one step: no event can fall, and the force at the end is the next piece's
             # start or the step's outputs, which the step's peak includes
-            wk.summary[O_FINT] += lti_fint(md.par, z, zn, tn - t, lp.km, pc.cs, True)
+            wk.summary[O_FINT] += lti_fint(md.par, z, zn, tn - t, lp.km, pc.cs, lp.quiet)
         else:
             z_to_y(zn, wk.ytmp)
             fm = events_at(md, wk, pc, hs, tn, wk.ytmp, wk.g)

@@ -90,7 +90,7 @@ def switch_flank(md, wk, pc, hs, label, s):
         mode[J_SEP] = 2
     else:            # apart -> drive flank contact
         mode[J_SEP] = 0
-        settle(md, hs, wk.active, pc.nact, s, pc.speed, 0)
+        settle(md, hs, wk.active, pc.nact, s, pc.speed, mode[J_SEP])
 
 
 @jit
@@ -183,4 +183,4 @@ def speed_change(md, wk, hs, nact, torque, speed, h):
         evaluate(md, wk, pc, st[T_S], st[T_S], hs.y, hs.dirs, stuck)
         stuck[j] = 1
         stick_impulse(md, wk, hs, i, h)
-    settle(md, hs, wk.active, nact, st[T_S], speed, 0)
+    settle(md, hs, wk.active, nact, st[T_S], speed, hs.mode[J_SEP])

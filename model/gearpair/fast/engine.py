@@ -308,6 +308,8 @@ class FastEngine(Engine):
         self._wk = work_buffers(n)
         # the compiled entry points take plain tuples (typed faster per call than named)
         self._args = (tuple(self._md), tuple(self._wk), tuple(self._hs))
+        # None compiles no exact propagator for an engine that does not use it (`loop.piece`)
+        self._lti = True if mi[I_LTI] else None
         self._last = None
         self._outputs: Outputs | None = None  # cache, valid until the state changes
         self._o_fresh = False  # wk.outputs holds the outputs of the current state
@@ -430,7 +432,7 @@ class FastEngine(Engine):
             -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
         out = self._wk.summary
         self._stale()
-        advance_entry(*self._args, float(t_end), float(torque), float(speed))
+        advance_entry(*self._args, float(t_end), float(torque), float(speed), self._lti)
         self._raise_failure()
         self._o_fresh = True  # advance_entry left the outputs in wk.outputs
         h = t_end - t_start
@@ -498,7 +500,7 @@ class FastEngine(Engine):
         n = len(grid)
         rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
         self._stale()
-        filled = run_grid_entry(*self._args, grid, T, W, yad, rec)
+        filled = run_grid_entry(*self._args, grid, (T, W, yad), rec, self._lti)
         if filled > 1:
             self._last = (float(grid[filled - 2]), float(grid[filled - 1]))
         if filled < n:

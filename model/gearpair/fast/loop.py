@@ -163,14 +163,16 @@ def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
 
 
 @jit
-def piece(md, wk, hs, nact, tb):
+def piece(md, wk, hs, nact, tb, lti):
     """Integrate one contact state from clock[T_T] towards tb; stop at the first switch.
 
+    ``lti``: None for an engine without the exact propagator (numba then prunes its branch,
+    so the propagator is compiled only for engines that use it), else True (flag I_LTI).
     Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
     """
     st = hs.clock
     pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
-    if md.flag[I_LTI] != 0:  # no friction: only the separation events, set up there
+    if lti is not None:  # no friction: only the separation events, set up there
         return piece_lti(md, wk, pc, hs, tb)
     if start_checks(md, wk, pc, hs) != 0:
         return 1
@@ -240,12 +242,12 @@ def segment_start(md, wk, hs, tb):
 
 
 @jit_inline
-def segment(md, wk, hs, tb):
+def segment(md, wk, hs, tb, lti):
     """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
     nact = segment_start(md, wk, hs, tb)
     summ = wk.summary
     while hs.clock[T_T] < tb:
-        r = piece(md, wk, hs, nact, tb)
+        r = piece(md, wk, hs, nact, tb, lti)
         if r < 0:
             summ[O_STATUS] = STATUS_STEP
             return
@@ -331,7 +333,7 @@ def next_boundary(md, wk, hs, noff, span, last_b):
 
 
 @jit
-def advance(md, wk, hs, t_end, torque, speed):
+def advance(md, wk, hs, t_end, torque, speed, lti):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
     st, summ = hs.clock, wk.summary
     for i in range(N_OUT):
@@ -356,7 +358,7 @@ def advance(md, wk, hs, t_end, torque, speed):
                                                (t_start, s_start, t_end, s_lim), last_b)
         if repeat:
             continue
-        segment(md, wk, hs, tb)
+        segment(md, wk, hs, tb, lti)
         if summ[O_STATUS] != STATUS_OK:
             return
         if ib < 0:
@@ -423,14 +425,16 @@ def outputs_now(md, wk, hs):
 
 
 @jit_inline
-def run_grid(md, wk, hs, grid, torque, speed, yad, rec):
-    """`advance` to every point of ``grid`` (inputs of interval i held from grid[i]) and
-    record the outputs and step figures there, without a return to Python per point.
+def run_grid(md, wk, hs, grid, inputs, rec, lti):
+    """`advance` to every point of ``grid`` (``inputs``: torque, speed and load-shaft end
+    rate of interval i, held from grid[i]) and record the outputs and step figures there,
+    without a return to Python per point.
 
     Returns the number of rows filled; fewer than ``len(grid)`` means the step into the next
     row failed (``wk.summary`` holds why).
     """
     st, y, o, summ = hs.clock, hs.y, wk.outputs, wk.summary
+    torque, speed, yad = inputs
     n = grid.shape[0]
     outputs_now(md, wk, hs)
     for m in range(N_O):
@@ -441,7 +445,7 @@ def run_grid(md, wk, hs, grid, torque, speed, yad, rec):
     for i in range(1, n):
         t0, stick0, sep0, back0 = st[T_T], st[T_STICK], st[T_SEP], st[T_BACK]
         y[Y_AD] = yad[i - 1]
-        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1])
+        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1], lti)
         if summ[O_STATUS] != STATUS_OK:
             return i
         outputs_now(md, wk, hs)
@@ -468,19 +472,18 @@ def reset_settle(md, wk, hs):
 
 # -- entry points from Python: plain tuples in, named records inside ------------------------
 @jit
-def advance_entry(md, wk, hs, t_end, torque, speed):
+def advance_entry(md, wk, hs, t_end, torque, speed, lti):
     """`advance`, then the outputs at the new state into wk.outputs unless it failed (the
     FMU reads them every step: one call from Python instead of two)."""
     m, w, h = ModelData(*md), Work(*wk), HybridState(*hs)
-    advance(m, w, h, t_end, torque, speed)
+    advance(m, w, h, t_end, torque, speed, lti)
     if w.summary[O_STATUS] == STATUS_OK:
         outputs_now(m, w, h)
 
 
 @jit
-def run_grid_entry(md, wk, hs, grid, torque, speed, yad, rec):
-    return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, torque, speed, yad,
-                    rec)
+def run_grid_entry(md, wk, hs, grid, inputs, rec, lti):
+    return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, inputs, rec, lti)
 
 
 @jit

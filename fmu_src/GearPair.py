@@ -275,7 +275,8 @@ def interface(gp=None) -> list[dict[str, Any]]:
         description="true: the load shaft kr2/cr2 ends at a load turning at the input "
         "load_speed (a driveline; power flows both ways); false: it ends at the nominal "
         "rotation (the paper)")
-    add("rtol", "Real", "parameter", "fixed", "1", None, 1e-12, 1e-3, 1e-8,
+    add("rtol", "Real", "parameter", "fixed", "1", None, params_mod.RTOL_MIN,
+        params_mod.RTOL_MAX, 1e-8,
         "relative tolerance of the engine's integrator")
     # Appended after rtol so the value references of the earlier variables stay as they were.
     add("mu_static", "Real", "parameter", "fixed", "1", None, 0.0, MU_STATIC_MAX, 0.0,
@@ -408,7 +409,7 @@ class GearPair(Fmi2Slave):
                 raise ValueError(f"{name} = {code!r} is out of range; allowed {listing}")
             choice[field_name] = codes[int(code)]
         params_mod.check_range("v_eps", self.v_eps, {"unit": "m/s", "min": 1e-9, "max": 1.0})
-        params_mod.check_range("rtol", self.rtol, {"unit": "", "min": 1e-12, "max": 1e-3})
+        params_mod.check_rtol(self.rtol)
         params_mod.check_range("backlash", self.backlash,
                                {"unit": "m", "min": 0.0, "max": BACKLASH_MAX})
         params_mod.check_range("mu_static", self.mu_static,

@@ -88,31 +88,57 @@ def plot(results: dict[str, dict[str, np.ndarray]], params: dict[str, dict],
     a = ax[3]
     tb, stick = block_mean(t, ref["GearPair.stick_fraction"], 0.01)
     _, sep = block_mean(t, ref["GearPair.separation_fraction"], 0.01)
-    a.plot(tb, stick, lw=1.0, label="stick fraction")
-    a.plot(tb, sep, lw=1.0, label="separation fraction")
+    # The state at each step end as shading along the time axis (not a curve on the fraction
+    # scale, where a constant "slip" would read as a threshold).
     state = ref["GearPair.contact_state"]
-    a.plot(t, state / 2.0, ",", color="k", alpha=0.3,
-           label="contact_state / 2 at step ends (0 apart, 0.5 slip, 1 stick)")
+    band = a.get_xaxis_transform()
+    a.fill_between(t, 0.0, 1.0, where=state == 2, step="post", transform=band, lw=0,
+                   color="tab:blue", alpha=0.35, label="stuck at the step end")
+    if np.any(state == 0):
+        a.fill_between(t, 0.0, 1.0, where=state == 0, step="post", transform=band, lw=0,
+                       color="tab:orange", alpha=0.35, label="apart at the step end")
+    a.plot(tb, stick, lw=1.2, color="tab:blue", label="stick fraction (10 ms mean)")
+    a.plot(tb, sep, lw=1.2, color="tab:orange", label="separation fraction (10 ms mean)")
     a.set_ylabel("fraction of time")
     a.set_ylim(-0.05, 1.05)
     a.legend(loc="upper right", fontsize=8)
 
+    # Agreement on a log axis: exact zeros have no logarithm, so they sit on a marked floor
+    # line, and a signal equal at every step says so in its label instead of vanishing.
     a = ax[4]
+    floor = 1e-17
+    a.axhline(floor, color="0.5", lw=0.8, ls=":")
+    a.text(t[-1], floor * 3, "difference exactly 0 ", ha="right", va="bottom", fontsize=7,
+           color="0.4")
     for m, res in results.items():
         if m == reference:
             continue
         for sig in ("Motor.speed", "GearPair.output_torque", "GearPair.dte"):
             scale = float(np.max(np.abs(ref[sig])))
             diff = np.abs(res[sig] - ref[sig]) / scale
-            a.semilogy(t, np.maximum(diff, 1e-18), lw=0.6, label=f"{m}: {sig}")
+            zero = diff == 0.0
+            if zero.all():
+                label = f"{m}: {sig} (identical at every step)"
+            elif zero.any():
+                label = f"{m}: {sig} ({zero.sum()} of {zero.size} steps identical)"
+            else:
+                label = f"{m}: {sig}"
+            a.semilogy(t, np.where(zero, floor, diff), lw=0.6, label=label)
     a.set_ylabel(f"|master - {reference}| / max")
     a.set_xlabel("time (s)")
-    a.set_ylim(1e-18, 1e-3)
+    a.set_ylim(floor / 10, 1e3)  # room above the data for the legend
     a.legend(loc="upper left", fontsize=7, ncol=2)
 
-    h = float(t[0])
+    h = float(t[1] - t[0])
+    mo, gp = params["Motor"], params.get("GearPair", {})
+    laws = {0: "no friction", 1: "nominal friction", 2: "regularized friction",
+            3: "stick-slip"}
     fig.suptitle(f"Driveline start-up: Motor - GearPair - Load, Jacobi, {h:g} s steps "
-                 f"({', '.join(results)})")
+                 f"({', '.join(results)})\nmotor {mo['T_stall']:g} N.m at stall, no load at "
+                 f"{mo['w_noload'] * rpm:g} r/min; load {ld['T_load']:g} N.m + "
+                 f"{ld['T_step']:g} N.m at {ld['t_step']:g} s;\nGearPair mu "
+                 f"{gp.get('mu', 0.02):g}, {laws.get(int(gp.get('friction_law', 3)), '')}, "
+                 f"kr1 {gp.get('kr1', 0):g} N/m")
     fig.tight_layout()
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

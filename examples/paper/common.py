@@ -20,12 +20,12 @@ from gearpair.sweep import SweepResult, SweepSettings, read_result, record_perio
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_OUT = ROOT / "build" / "paper"
 
-# The operating point of the time responses (MODEL.md: not stated in the paper).
+# The operating point of the time responses (docs/model.md "Choices": not stated in the paper).
 TORQUE = 3900.0      # N.m
 SPEED_RPM = 100.0    # r/min
 # The traditional slip model takes the friction direction from the nominal kinematics
 # (`Effects.friction = "nominal"`); the paper's slip model with sign(v) has no solution where
-# stick occurs (MODEL.md "Two traps").
+# stick occurs (docs/model.md "Choices").
 SLIP = "nominal"
 STICK = "stick_slip"
 MODEL_LABEL = {SLIP: "slip model", STICK: "stick-slip model"}

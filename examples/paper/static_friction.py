@@ -47,7 +47,7 @@ from gearpair.engine import CONTACT_STICK
 from gearpair.geometry import Geometry
 
 ROOT = Path(__file__).resolve().parents[2]
-TORQUE = 3900.0  # N.m, as the comparison (MODEL.md: the paper does not state it)
+TORQUE = 3900.0  # N.m, as the comparison (docs/model.md "Choices": the paper does not state it)
 SPEED_RPM = 100.0
 MU = 0.02  # Table 1
 # (label, mu_static / mu, Stribeck velocity m/s or None)

@@ -1,40 +1,130 @@
 """`gearpair` command line: thin wrappers over the core.
 
-gearpair modes [--json]
+gearpair modes [SCENE.toml] [--set NAME=VALUE ...] [--bore-ratio R] [--first-mode-hz F] [--json]
 gearpair simulate SCENE.toml [--engine fast|fmu|reference] [--out run.csv] [--plot run.png]
-                  [--json] [--t-end S]
+                  [--json] [--t-end S] [--set NAME=VALUE ...]
 gearpair simulate [--json] [--out run.csv] [--t-end S] [--speed-rpm N] [--torque NM] ...
+gearpair sweep PARAM VALUES [...]        gearpair bench [...]
 """
 
 from __future__ import annotations
 
 import argparse
+import difflib
 import json
+import math
 import sys
 import time
+import warnings
+from dataclasses import asdict, fields, replace
 
 import numpy as np
 
-from .effects import Effects, StiffnessSpec
-from .equations import Model
-from .modal import SLIP_NAMES, modes
-from .params import RPM, GearParams, OperatingPoint
+from . import __version__
+from .effects import (
+    DOFS,
+    FRICTION_LAWS,
+    SLIDING_VARIANTS,
+    STICK_TIES,
+    STIFFNESS_KINDS,
+    Effects,
+    StiffnessSpec,
+)
+from .modal import SLIP_NAMES, derive_params, modes
+from .params import RPM, RTOL_MAX, RTOL_MIN, GearParams, OperatingPoint
+
+_GEAR_FIELDS = {f.name: f for f in fields(GearParams)}
+_DERIVED = {"bore_ratio": ("m1", "J1", "m2", "J2"), "first_mode_hz": ("kr2",)}
+
+
+def parse_set(items: list[str]) -> dict[str, float]:
+    """``--set NAME=VALUE`` items as GearParams changes; ``ValueError`` (one line) for a
+    malformed item, an unknown name (with the closest field) or a value that is no number.
+    Ranges are checked by `GearParams` itself."""
+    out: dict[str, float] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise ValueError(f"--set {item!r}: use NAME=VALUE, e.g. --set module=0.004")
+        if name == "pressure_angle_deg":
+            name, scale = "pressure_angle", math.pi / 180.0
+        else:
+            scale = 1.0
+        if name not in _GEAR_FIELDS:
+            near = difflib.get_close_matches(name, list(_GEAR_FIELDS), n=1)
+            hint = f" (did you mean {near[0]}?)" if near else ""
+            raise ValueError(f"--set {name}: no such gear parameter{hint}; choose from "
+                             f"{', '.join(_GEAR_FIELDS)}, pressure_angle_deg")
+        try:
+            value = float(text)
+        except ValueError:
+            raise ValueError(f"--set {item!r}: {text.strip()!r} is not a number") from None
+        if isinstance(_GEAR_FIELDS[name].default, int):
+            if value != int(value):
+                raise ValueError(f"--set {item!r}: {name} must be a whole number")
+            value = int(value)
+        if name in out:
+            raise ValueError(f"--set {name} is given twice")
+        out[name] = value * scale if scale != 1.0 else value
+    return out
+
+
+def gear_from_args(args, base: GearParams, effects: Effects) -> GearParams:
+    """``base`` with ``--set`` applied, then ``--bore-ratio`` and ``--first-mode-hz``
+    derived (`gearpair.modal.derive_params`)."""
+    changes = parse_set(args.set)
+    for opt, derived in _DERIVED.items():
+        clash = [k for k in derived if k in changes]
+        if getattr(args, opt) is not None and clash:
+            raise ValueError(f"--{opt.replace('_', '-')} derives {', '.join(derived)}: do not "
+                             f"also --set {', '.join(clash)}")
+    p = base.replace(**changes) if changes else base
+    return derive_params(p, bore_ratio=args.bore_ratio, first_mode_hz=args.first_mode_hz,
+                         effects=effects)
+
+
+def _changed(p: GearParams) -> dict[str, float]:
+    """The fields of ``p`` that differ from Table 1 (for the summaries)."""
+    d = GearParams()
+    return {k: v for k, v in asdict(p).items() if v != getattr(d, k)}
 
 
 def _modes(args) -> int:
-    model = Model.build(GearParams(), Effects(stiffness="constant"))
+    if args.scene:
+        from .scenes import load_scene
+
+        if args.dof is not None or args.sliding is not None:
+            raise ValueError("--dof, --sliding: set these in the scene file's [effects]")
+        scene = load_scene(args.scene)
+        base, effects = scene.params, scene.effects
+    else:
+        effects = Effects(stiffness="constant", dof=args.dof or "full",
+                          sliding=args.sliding or "paper",
+                          friction="stick_slip" if args.dof != "torsional" else "nominal")
+        base = GearParams()
+    if args.mu is not None:
+        if any(i.partition("=")[0].strip() == "mu" for i in args.set):
+            raise ValueError("give --mu or --set mu=..., not both")
+        args.set = [*args.set, f"mu={args.mu}"]
+    p = gear_from_args(args, base, effects)
     out = {}
     for which in ("slip", "stick"):
-        f, shapes = modes(model, which)
+        f, shapes = modes(p, which, effects=replace(effects, stiffness=StiffnessSpec("constant")))
         out[which] = {
             "frequencies_hz": [round(float(x), 6) for x in f],
             "coordinates": list(SLIP_NAMES),
             "mode_shapes": [[round(float(v), 6) for v in shapes[:, i]] for i in range(len(f))],
         }
+    out["params"] = asdict(p)
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
-    for which, d in out.items():
+    changed = _changed(p)
+    print("gear data: Table 1" + (" except " + ", ".join(f"{k} = {v:.6g}" for k, v in
+                                                         changed.items()) if changed else ""))
+    for which in ("slip", "stick"):
+        d = out[which]
         print(f"{which} model: natural frequencies (Hz) and mode shapes (largest component 1)")
         print("  mode  f (Hz)     " + "  ".join(f"{n:>7s}" for n in SLIP_NAMES))
         for i, f in enumerate(d["frequencies_hz"]):
@@ -58,9 +148,12 @@ _RUN_FLAGS = {"dt": 1e-4, "steady_from": 0.5, "torque": OperatingPoint().torque,
 
 
 def _scene_from_flags(args):
-    """The flag-based run as a scene: constant inputs, Table 1 data with ``--mu``."""
+    """The flag-based run as a scene: constant inputs, Table 1 data with ``--mu`` and
+    ``--set``."""
     from .scenes import Constant, Inputs, OutputSpec, Scene, Solver
 
+    if args.mu is not None and "mu" in parse_set(args.set):
+        raise ValueError("give --mu or --set mu=..., not both")
     for k, v in _RUN_FLAGS.items():
         if getattr(args, k) is None:
             setattr(args, k, v)
@@ -68,8 +161,10 @@ def _scene_from_flags(args):
     if not (t_end > 0 and args.dt > 0):
         raise ValueError(f"--t-end = {t_end!r} and --dt = {args.dt!r} must be > 0 s")
     op = OperatingPoint(torque=args.torque, speed=args.speed_rpm * RPM)
+    effects = _effects(args)
     scene = Scene(
-        name="command line", params=GearParams(mu=args.mu), effects=_effects(args),
+        name="command line", params=gear_from_args(args, GearParams(mu=args.mu), effects),
+        effects=effects,
         inputs=Inputs(torque=Constant(op.torque), speed=Constant(op.speed)),
         solver=Solver(engine=args.engine or "reference", rtol=args.rtol),
         outputs=OutputSpec(interval=args.dt), t_end=t_end)
@@ -86,9 +181,44 @@ def _scene_from_file(args):
         raise ValueError(f"{flags}: set this in the scene file; with a scene only --engine, "
                          "--t-end, --out, --plot and --json apply")
     scene = load_scene(args.scene)
+    if args.set or args.bore_ratio is not None or args.first_mode_hz is not None:
+        scene = replace(scene, params=gear_from_args(args, scene.params, scene.effects))
     if args.t_end is not None:
         scene = scene.with_t_end(args.t_end)
     return scene, scene.t_from, {"scene_file": str(args.scene)}
+
+
+def _schedule_text(f, unit: str, scale: float = 1.0) -> str:
+    """An input schedule in a few words (constant value, ramp, step, CSV series)."""
+    from .scenes import Ramp, Series, Step
+
+    if isinstance(f, Ramp):
+        return f"{f.start * scale:g}->{f.end * scale:g} {unit} ramp"
+    if isinstance(f, Step):
+        return f"{f.before * scale:g}->{f.after * scale:g} {unit} step at {f.at:g} s"
+    if isinstance(f, Series):
+        return f"{unit} from {f.source or 'CSV'}"
+    return f"{f(0.0) * scale:g} {unit}"
+
+
+def plot_title(scene, engine: str) -> str:
+    """The figure title: scene, operating point (speed, torque, mu) and effects, engine."""
+    fx = scene.effects
+    eff = [f"friction {fx.friction}", f"stiffness {fx.stiffness.kind}"]
+    if not fx.separation:
+        eff.append("no separation")
+    if fx.backlash is not None:
+        eff.append(f"backlash {fx.backlash * 1e6:g} um")
+    if fx.dof != "full":
+        eff.append(fx.dof)
+    if fx.friction in ("nominal", "regularized", "stick_slip"):
+        eff.append(f"sliding {fx.sliding}")
+    if fx.friction == "stick_slip":
+        eff.append(f"tie {fx.stick_tie}")
+    gear = "" if not _changed(scene.params).keys() - {"mu"} else ", own gear data"
+    return (f"{scene.name}: {_schedule_text(scene.inputs.speed, 'r/min', 1 / RPM)}, "
+            f"{_schedule_text(scene.inputs.torque, 'N.m')}, mu {scene.params.mu:g}{gear}\n"
+            f"{', '.join(eff)}; {engine} engine")
 
 
 def _simulate(args) -> int:
@@ -102,7 +232,7 @@ def _simulate(args) -> int:
         return 1
     wall = time.perf_counter() - wall0
     summ = {"scene": scene.name, "engine": engine, "t_end": scene.t_end, **extra,
-            **traj.summary(t_from)}
+            "gear_changed": _changed(scene.params), **traj.summary(t_from)}
     summ["events"] = int(np.sum(traj["n_events"]))
     summ["wall_time_s"] = wall
     summ["wall_time_per_simulated_s"] = wall / scene.t_end
@@ -111,7 +241,7 @@ def _simulate(args) -> int:
         summ["out"] = args.out
     if args.plot:
         try:
-            traj.plot(args.plot, title=f"{scene.name} ({engine} engine)")
+            traj.plot(args.plot, title=plot_title(scene, engine))
         except ImportError as exc:
             print(f"gearpair: error: {exc}", file=sys.stderr)
             return 1
@@ -139,37 +269,93 @@ def _simulate(args) -> int:
     return 0
 
 
+def _add_gear_options(p: argparse.ArgumentParser) -> None:
+    """``--set``, ``--bore-ratio``, ``--first-mode-hz``: own gear data (modes, simulate)."""
+    g = p.add_argument_group("own gear data (Table 1 unless changed; applied over a scene's "
+                             "[gear])")
+    g.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="change a GearParams field in SI units (m, kg, kg.m2, N/m, rad; "
+                   "pressure_angle_deg in degrees), e.g. --set module=0.004 --set z1=25; "
+                   "repeatable; names and ranges in docs/scenes.md [gear]")
+    g.add_argument("--bore-ratio", type=float, metavar="R",
+                   help="derive m1, J1, m2, J2 from module, teeth and face width as steel "
+                   "rings (7850 kg/m3) with bore diameter = R x pitch diameter, R in [0, 0.99] "
+                   "(Table 1's bodies are R = 0.8; docs/model.md); default: keep them")
+    g.add_argument("--first-mode-hz", type=float, metavar="HZ",
+                   help="derive kr2 so that the slip model's first natural frequency is HZ "
+                   "(the paper tunes it to 32 Hz for Table 1's gears); default: keep kr2")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="gearpair", description=__doc__.splitlines()[0])
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    m = sub.add_parser("modes", help="natural frequencies and mode shapes (Figs. 5-6)")
-    m.add_argument("--json", action="store_true")
+    ap = argparse.ArgumentParser(
+        prog="gearpair", description="Spur gear pair dynamics with stick-slip (Xun, Dai & "
+        "Wang 2023): natural frequencies, simulation, parameter sweeps and benchmarks.",
+        epilog="'gearpair COMMAND -h' lists the options of a command. Units are SI unless "
+        "the option says otherwise.")
+    ap.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                    help="print the version and exit")
+    sub = ap.add_subparsers(dest="cmd", metavar="COMMAND")
+    m = sub.add_parser("modes", help="natural frequencies and mode shapes (Figs. 5-6)",
+                       description="Natural frequencies and mode shapes of the slip (Eqs. "
+                       "4-7) and stick (Eq. 22) models with the mean mesh stiffness, for "
+                       "Table 1's gears, a scene's [gear] or your own data.")
+    m.add_argument("scene", nargs="?", help="scene file (TOML, docs/scenes.md) whose [gear] "
+                   "and [effects] dof/sliding to use; default: Table 1")
+    m.add_argument("--json", action="store_true", help="print frequencies (Hz), mode shapes "
+                   "and the gear data used as JSON")
+    m.add_argument("--mu", type=float, help="coefficient of friction, [0, 1] (accepted for "
+                   "symmetry with simulate; the modes do not depend on it); default 0.02")
+    m.add_argument("--dof", choices=DOFS, help="full 6-DOF or torsional (u1, u2) model; "
+                   "default full")
+    m.add_argument("--sliding", choices=SLIDING_VARIANTS, help="sliding velocity that the "
+                   "stick model ties: paper (Eq. 12) or full; default paper")
+    _add_gear_options(m)
     s = sub.add_parser("simulate", help="run a scene file (or one operating point given by "
-                       "flags) and summarize")
+                       "flags) and summarize",
+                       description="Simulate a scene file, or one operating point given by "
+                       "the flags, and print the stick and contact-loss ratios (Eqs. 26-27), "
+                       "mesh force and DTE over the steady window.")
     s.add_argument("scene", nargs="?", help="scene file (TOML, docs/scenes.md); without it "
                    "the flags below describe the run")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
-    s.add_argument("--out", help="write the trajectory as CSV (units in the header)")
-    s.add_argument("--plot", help="draw DTE, mesh force, friction and contact state (e.g. "
-                   "run.png; needs matplotlib)")
+    s.add_argument("--out", metavar="FILE.csv", help="write the trajectory as CSV: header "
+                   "of plain output names (time, dte, ...; SI units, listed in "
+                   "docs/scenes.md), readable by fmpy --input-file and [inputs.csv]")
+    s.add_argument("--plot", metavar="FILE", help="draw DTE, mesh force, friction and "
+                   "contact state (format from the suffix, e.g. run.png; needs matplotlib)")
     s.add_argument("--engine", choices=("fast", "reference", "fmu"),
-                   help="default: the scene's [solver] engine; reference without a scene")
-    s.add_argument("--t-end", type=float, help="simulated time (s); overrides the scene's "
-                   "(default 0.2 without a scene)")
+                   help="integrator: fast (numba), reference (scipy) or fmu (the built FMU "
+                   "through fmpy); default: the scene's [solver] engine, reference without "
+                   "a scene")
+    s.add_argument("--t-end", type=float, metavar="S", help="simulated time (s), overrides "
+                   "the scene's; default 0.2 without a scene")
     d = _RUN_FLAGS
     run = s.add_argument_group("run without a scene file")
-    run.add_argument("--dt", type=float, help=f"output interval (s), default {d['dt']:g}")
-    run.add_argument("--steady-from", type=float, help="start of the steady window as a "
-                     f"fraction of t-end, default {d['steady_from']:g}")
-    run.add_argument("--torque", type=float, help=f"N.m, default {d['torque']:g}")
-    run.add_argument("--speed-rpm", type=float, help=f"default {d['speed_rpm']:g}")
-    run.add_argument("--mu", type=float, help=f"default {d['mu']:g}")
-    run.add_argument("--rtol", type=float, help=f"default {d['rtol']:g}")
-    run.add_argument("--stiffness", help=f"default {d['stiffness']}")
-    run.add_argument("--friction", help=f"default {d['friction']}")
-    run.add_argument("--sliding", help=f"default {d['sliding']}")
-    run.add_argument("--stick-tie", help=f"default {d['stick_tie']}")
-    run.add_argument("--no-separation", action="store_true", default=None)
+    run.add_argument("--dt", type=float, metavar="S", help=f"output interval and "
+                     f"communication step (s); default {d['dt']:g}")
+    run.add_argument("--steady-from", type=float, metavar="FRACTION", help="start of the "
+                     f"steady window as a fraction of --t-end; default {d['steady_from']:g}")
+    run.add_argument("--torque", type=float, metavar="NM", help="driving torque on gear 1 "
+                     f"(N.m); default {d['torque']:g}")
+    run.add_argument("--speed-rpm", type=float, metavar="RPM", help="speed of gear 1 (r/min); "
+                     f"default {d['speed_rpm']:g}")
+    run.add_argument("--mu", type=float, help="coefficient of friction, [0, 1]; default "
+                     f"{d['mu']:g}")
+    run.add_argument("--rtol", type=float, help="relative tolerance of the integrator, "
+                     f"[{RTOL_MIN:g}, {RTOL_MAX:g}]; default {d['rtol']:g}")
+    run.add_argument("--stiffness", choices=[k for k in STIFFNESS_KINDS if k != "table"],
+                     help=f"mesh stiffness law; default {d['stiffness']} (a table needs a "
+                     "scene file)")
+    run.add_argument("--friction", choices=FRICTION_LAWS, help="friction law: off, nominal "
+                     "(the slip model), regularized or stick_slip (the paper's); default "
+                     f"{d['friction']}")
+    run.add_argument("--sliding", choices=SLIDING_VARIANTS, help="sliding velocity: paper "
+                     f"(Eq. 12) or full; default {d['sliding']}")
+    run.add_argument("--stick-tie", choices=STICK_TIES, help="how stuck teeth move together: "
+                     f"exact (v = 0) or paper (Eq. 19); default {d['stick_tie']}")
+    run.add_argument("--no-separation", action="store_true", default=None,
+                     help="teeth never separate (a linear mesh spring); default: they do")
+    _add_gear_options(s)
     from .sweep import add_parser as add_sweep_parser  # argparse only; dask loads on use
 
     add_sweep_parser(sub)
@@ -191,14 +377,25 @@ def _bench(args) -> int:
     return bench_main(args)
 
 
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line on stderr, like the errors (no source file and line)."""
+    print(f"gearpair: warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return {"modes": _modes, "simulate": _simulate, "sweep": _sweep,
-                "bench": _bench}[args.cmd](args)
-    except ValueError as exc:
-        print(f"gearpair: error: {exc}", file=sys.stderr)
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    if args.cmd is None:  # bare `gearpair`: the help, and argparse's status for a usage error
+        ap.print_help()
         return 2
+    with warnings.catch_warnings():
+        warnings.showwarning = _warning_line
+        try:
+            return {"modes": _modes, "simulate": _simulate, "sweep": _sweep,
+                    "bench": _bench}[args.cmd](args)
+        except ValueError as exc:
+            print(f"gearpair: error: {exc}", file=sys.stderr)
+            return 2
 
 
 if __name__ == "__main__":

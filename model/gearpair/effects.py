@@ -79,7 +79,7 @@ class Effects:
     Attributes
     ----------
     stiffness : StiffnessSpec
-        Mesh stiffness law (Fig. 4; MODEL.md "Choices").
+        Mesh stiffness law (Fig. 4; docs/model.md "Choices").
     separation : bool
         Tooth separation, Eq. (8): mesh force and mesh damping vanish for delta < 0. When
         False the mesh spring also pulls (a linear model).

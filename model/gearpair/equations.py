@@ -10,12 +10,13 @@ Nothing here decides *when* the state switches (see `switching`) or *how* a step
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from .effects import Effects
-from .geometry import Geometry
+from .geometry import GearDataWarning, Geometry, table1_body_mismatch
 from .params import GearParams
 from .stiffness import MeshStiffness
 
@@ -61,6 +62,9 @@ class Model:
         friction coefficients do not fit together (`check_friction_coefficients`)."""
         p = p or GearParams()
         effects = effects or Effects()
+        mismatch = table1_body_mismatch(p)
+        if mismatch:  # the most common slip with own gear data: Table 1's bodies kept
+            warnings.warn(mismatch, GearDataWarning, stacklevel=2)
         mu_static = check_friction_coefficients(p, effects)
         geom = Geometry.from_params(p)
         stiff = MeshStiffness.build(p, geom, effects.stiffness)

@@ -1,4 +1,4 @@
-"""Spur gear geometry along the line of action (MODEL.md "Geometry", Fig. 3).
+"""Spur gear geometry along the line of action (docs/model.md, Fig. 3).
 
 Positions along the line of action (LOA) are measured from S1, the tangent point on gear 1's
 base circle. Contact runs A -> B -> P -> D -> E: A start of contact, P the pitch point,
@@ -134,3 +134,77 @@ class Geometry:
                     out.append(b)
         out = np.unique(np.array(out, dtype=float))
         return out if s1 >= s0 else out[::-1]
+
+
+# -- gear bodies from the geometry ---------------------------------------------------------------
+STEEL_DENSITY = 7850.0  # kg/m^3
+BORE_RATIO_TABLE1 = 0.8  # Table 1's masses and inertias are steel rings of this bore ratio
+BORE_RATIO_MAX = 0.99  # a thinner rim is no gear body
+
+
+def body_mass_inertia(module: float, teeth: int, face_width: float,
+                      bore_ratio: float = BORE_RATIO_TABLE1,
+                      density: float = STEEL_DENSITY) -> tuple[float, float]:
+    """Mass (kg) and polar moment of inertia (kg.m2) of a gear body as a ring.
+
+    The body is a ring of outer radius the pitch radius ``r = module teeth / 2``, inner
+    radius ``bore_ratio r`` and width ``face_width``: ``m = density pi b (r^2 - r_i^2)``,
+    ``J = m (r^2 + r_i^2) / 2``. Counting the teeth up to the pitch circle stands for their
+    real shape: the tooth zone between the root circle (1.25 module below the pitch circle)
+    and the tip circle (1 module above) is filled about half, which holds as much steel as
+    the full ring from the root to the pitch circle. Hub, web and spokes are not modelled: a
+    webbed wheel is described by the bore ratio of a plain ring of equal mass (or give its
+    masses directly).
+
+    Table 1's data (module 6 mm, 33 and 80 teeth, 200 mm face width) are steel rings of bore
+    ratio 0.8 within 0.7 % (17.40 kg / 0.1399 kg.m2 against 17.29 / 0.139; 102.3 / 4.831
+    against 101.62 / 4.799).
+    """
+    if not (math.isfinite(bore_ratio) and 0.0 <= bore_ratio <= BORE_RATIO_MAX):
+        raise ValueError(f"bore_ratio = {bore_ratio!r} is out of range; allowed "
+                         f"[0, {BORE_RATIO_MAX:g}] (bore diameter over pitch diameter)")
+    if not (math.isfinite(density) and 0.0 < density <= 1e5):
+        raise ValueError(f"density = {density!r} is out of range; allowed (0, 1e+05] kg/m^3")
+    r = module * teeth / 2.0
+    ri = bore_ratio * r
+    m = density * math.pi * face_width * (r * r - ri * ri)
+    return m, 0.5 * m * (r * r + ri * ri)
+
+
+def steel_body(p: GearParams, bore_ratio: float | tuple[float, float] = BORE_RATIO_TABLE1,
+               density: float = STEEL_DENSITY) -> GearParams:
+    """``p`` with ``m1, J1, m2, J2`` derived from its module, tooth numbers and face width.
+
+    Each gear is a steel ring (`body_mass_inertia`); ``bore_ratio`` (bore diameter over pitch
+    diameter) is one value for both gears or ``(gear 1, gear 2)``. The other fields, ``kr2``
+    included, are kept: `gearpair.modal.tune_kr2` then sets the first natural frequency.
+    """
+    b1, b2 = (bore_ratio, bore_ratio) if not isinstance(bore_ratio, (tuple, list)) \
+        else bore_ratio
+    m1, j1 = body_mass_inertia(p.module, p.z1, p.face_width, float(b1), density)
+    m2, j2 = body_mass_inertia(p.module, p.z2, p.face_width, float(b2), density)
+    return p.replace(m1=m1, J1=j1, m2=m2, J2=j2)
+
+
+class GearDataWarning(UserWarning):
+    """Gear data that are valid but probably not what was meant (`table1_body_mismatch`)."""
+
+
+# Table 1's geometry, for which its masses and inertias hold.
+_TABLE1_GEOMETRY = ("module", "z1", "z2", "face_width")
+_TABLE1_BODY = ("m1", "J1", "m2", "J2")
+
+
+def table1_body_mismatch(p: GearParams) -> str | None:
+    """A warning text when ``p`` keeps Table 1's masses or inertias with another geometry,
+    else None (Table 1's bodies belong to module 6 mm, 33/80 teeth, 200 mm face width)."""
+    d = GearParams()
+    moved = [k for k in _TABLE1_GEOMETRY if getattr(p, k) != getattr(d, k)]
+    kept = [k for k in _TABLE1_BODY if getattr(p, k) == getattr(d, k)]
+    if not moved or not kept:
+        return None
+    return (f"{', '.join(kept)} are Table 1's values, but {', '.join(moved)} differ from "
+            "Table 1's gears (module 6 mm, 33/80 teeth, 0.2 m face width): derive them from "
+            "the geometry (gearpair.geometry.steel_body; scenes: [gear] bore_ratio; CLI: "
+            "--bore-ratio) or give your own, and tune kr2 to your first mode "
+            "(first_mode_hz, --first-mode-hz)")

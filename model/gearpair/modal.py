@@ -6,16 +6,37 @@ q through ``[x1, y1, u1, y2, u2]`` with x2 tied to x1, and the rows of ``P`` (5x
 combinations of Eqs. (1)-(2) that eliminate the friction force, ``P w = 0`` (sum of the x
 equations; each rotation equation plus its arm times an x equation). Mt is not symmetric
 (friction acts on a lever arm), so the eigenproblem is a general one.
+
+Every public function takes the gear data as a `GearParams` (with optional `Effects`: only
+``dof`` and ``sliding`` matter here) or an already built `Model`.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from scipy.linalg import eig, eigh, null_space
 
+from .effects import Effects, StiffnessSpec
 from .equations import X1, X2, G, Model
+from .params import GearParams
 
 SLIP_NAMES = ("x1", "y1", "u1", "x2", "y2", "u2")
+
+
+def as_model(system: GearParams | Model, effects: Effects | None = None) -> Model:
+    """The `Model` whose modes are wanted: ``system`` itself if it is one, else built from the
+    `GearParams` with ``effects`` (default `Effects()`) and a constant mesh stiffness, since
+    only its mean enters the modes (no stiffness law is built)."""
+    if isinstance(system, Model):
+        if effects is not None and effects != system.effects:
+            return as_model(system.p, effects)
+        return system
+    if not isinstance(system, GearParams):
+        raise TypeError(f"expected GearParams or Model, got {type(system).__name__}")
+    fx = Effects() if effects is None else effects
+    return Model.build(system, replace(fx, stiffness=StiffnessSpec(kind="constant")))
 
 
 def slip_matrices(model: Model, km: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -59,9 +80,29 @@ def _normalize(shapes: np.ndarray) -> np.ndarray:
     return out
 
 
-def modes(model: Model, which: str = "slip", xi: float | None = None):
-    """Natural frequencies (Hz, ascending) and mode shapes in q = [x1..u2] (columns,
-    largest component 1) of the ``slip`` (6) or ``stick`` (5) model."""
+def modes(system: GearParams | Model, which: str = "slip", xi: float | None = None,
+          effects: Effects | None = None):
+    """Natural frequencies (Hz, ascending) and mode shapes of the slip or stick model.
+
+    Parameters
+    ----------
+    system : GearParams or Model
+        The gear data (see `as_model`).
+    which : {"slip", "stick"}
+        ``slip``: Eqs. (4)-(7), 6 modes (2 in the torsional model); ``stick``: Eq. (22),
+        5 modes, a pair stuck at ``xi`` (m from A; default the pitch point).
+    effects : Effects, optional
+        ``dof`` and ``sliding`` of the model (with a `GearParams`).
+
+    Returns
+    -------
+    freqs : ndarray
+        Natural frequencies (Hz), ascending.
+    shapes : ndarray
+        Mode shapes in q = [x1, y1, u1, x2, y2, u2] (m), one column per mode, largest
+        component 1.
+    """
+    model = as_model(system, effects)
     if which == "slip":
         M, K = slip_matrices(model)
         free = model.free_dofs  # torsional: the (u1, u2) block, shapes padded with zeros
@@ -82,21 +123,75 @@ def modes(model: Model, which: str = "slip", xi: float | None = None):
     return freqs, _normalize(vec)
 
 
-def natural_frequencies(model: Model, which: str = "slip") -> np.ndarray:
-    """Natural frequencies (Hz) of the slip or stick model."""
-    return modes(model, which)[0]
+def natural_frequencies(system: GearParams | Model, which: str = "slip",
+                        effects: Effects | None = None) -> np.ndarray:
+    """Natural frequencies (Hz, ascending) of the slip or stick model (see `modes`), e.g.
+    ``natural_frequencies(GearParams(module=4e-3, z1=25, z2=60))``."""
+    return modes(system, which, effects=effects)[0]
 
 
-def kr2_for_first_mode(model: Model, f_hz: float = 32.0) -> float:
-    """The rotational stiffness kr2 (N/m on the base circle) that puts the slip model's first
-    natural frequency at ``f_hz`` (the paper's 32 Hz 'rigid' mode)."""
+_KR2_BRACKET = (1e2, 1e12)  # N/m searched for kr2 (the field allows (0, 1e14])
+
+
+def kr2_for_first_mode(system: GearParams | Model, f_hz: float = 32.0,
+                       effects: Effects | None = None) -> float:
+    """The rotational stiffness kr2 (N/m on gear 2's base circle) that puts the first
+    (lowest) natural frequency of the slip model (Eqs. (4)-(7), mean mesh stiffness) at
+    ``f_hz``.
+
+    That mode is the paper's 32 Hz one (Fig. 5): both gears turn together against the load
+    shaft kr2, with the mesh hardly deflected. Adding stiffness never lowers a natural
+    frequency, so the first one rises monotonically with kr2 and the root is unique; it
+    saturates where another mode (a support translation) becomes the lowest, so a target
+    above that is refused with ``ValueError`` giving the reachable range.
+    """
     from scipy.optimize import brentq
 
-    from .effects import Effects
+    model = as_model(system, effects)
+    if not (np.isfinite(f_hz) and f_hz > 0):
+        raise ValueError(f"first_mode_hz = {f_hz!r} is out of range; allowed > 0 Hz")
 
     def f1(log_kr2):
         p = model.p.replace(kr2=float(np.exp(log_kr2)))
-        # Only the mean mesh stiffness enters the modes: skip building the stiffness law.
-        return natural_frequencies(Model.build(p, Effects(stiffness="constant")), "slip")[0] - f_hz
+        return natural_frequencies(as_model(p, model.effects), "slip")[0] - f_hz
 
-    return float(np.exp(brentq(f1, np.log(1e2), np.log(1e12), xtol=1e-12)))
+    lo, hi = (np.log(x) for x in _KR2_BRACKET)
+    f_lo, f_hi = f1(lo) + f_hz, f1(hi) + f_hz
+    if not f_lo < f_hz < f_hi:
+        raise ValueError(f"first_mode_hz = {f_hz:g} is out of reach for this gear data: kr2 "
+                         f"from {_KR2_BRACKET[0]:g} to {_KR2_BRACKET[1]:g} N/m gives a first "
+                         f"mode from {f_lo:.4g} to {f_hi:.4g} Hz")
+    return float(np.exp(brentq(f1, lo, hi, xtol=1e-12)))
+
+
+def tune_kr2(p: GearParams, first_mode_hz: float = 32.0,
+             effects: Effects | None = None) -> GearParams:
+    """``p`` with ``kr2`` set so that the slip model's first natural frequency is
+    ``first_mode_hz`` (`kr2_for_first_mode`); Table 1's kr2 gives 32 Hz for Table 1's gears
+    only."""
+    return p.replace(kr2=kr2_for_first_mode(p, first_mode_hz, effects))
+
+
+def derive_params(p: GearParams, *, bore_ratio: float | tuple[float, float] | None = None,
+                  first_mode_hz: float | None = None,
+                  effects: Effects | None = None) -> GearParams:
+    """``p`` with the quantities Table 1 cannot give for other gears derived from the geometry.
+
+    Parameters
+    ----------
+    bore_ratio : float or (float, float), optional
+        Derive ``m1, J1, m2, J2`` as steel rings (`gearpair.geometry.steel_body`; bore
+        diameter over pitch diameter, Table 1's bodies are 0.8). None keeps them.
+    first_mode_hz : float, optional
+        Then set ``kr2`` so that the slip model's first natural frequency is this (Hz;
+        `kr2_for_first_mode`). None keeps it.
+    effects : Effects, optional
+        ``dof`` and ``sliding`` of the model the frequency refers to.
+    """
+    from .geometry import steel_body
+
+    if bore_ratio is not None:
+        p = steel_body(p, bore_ratio)
+    if first_mode_hz is not None:
+        p = tune_kr2(p, first_mode_hz, effects)
+    return p

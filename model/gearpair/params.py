@@ -13,6 +13,13 @@ from typing import Any
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
 
+# The integrator tolerance every entry point accepts (engines, command line, scenes, FMU).
+# Below 1e-12 the step control works at the rounding level of the 18-wide state (scipy's
+# solvers silently raise an rtol below 100 eps = 2.2e-14 anyway); above 1e-3 the energy
+# balance (checked to 50 rtol of its scale) and the event location stop meaning anything.
+RTOL_MIN, RTOL_MAX = 1e-12, 1e-3
+RTOL_META = {"unit": "1", "min": RTOL_MIN, "max": RTOL_MAX, "lo_open": False}
+
 
 def _meta(unit: str, lo: float | None, hi: float | None, doc: str, *, lo_open: bool = False):
     return {"unit": unit, "min": lo, "max": hi, "lo_open": lo_open, "doc": doc}
@@ -99,7 +106,7 @@ class GearParams:
                 raise ValueError(
                     f"{name} must be a whole number of teeth, got {getattr(self, name)}")
 
-    # -- derived quantities (Eq. (5) and MODEL.md "Damping") --------------------------------
+    # -- derived quantities (Eq. (5) and docs/model.md "Choices") --------------------------------
     @property
     def rb1(self) -> float:
         """Base radius of gear 1 (m)."""
@@ -169,6 +176,19 @@ class GearParams:
         return out
 
 
+def unit_name(unit: str) -> str:
+    """A unit as a message prints it: ``"1"`` (the FMI spelling of dimensionless) as nothing,
+    every other unit as written."""
+    return "" if unit in ("1", "") else unit
+
+
+def check_rtol(rtol: Any, name: str = "rtol") -> float:
+    """``rtol`` as a float, or ``ValueError`` naming the one allowed range
+    [`RTOL_MIN`, `RTOL_MAX`]."""
+    check_range(name, rtol, RTOL_META)
+    return float(rtol)
+
+
 def check_range(name: str, value: Any, meta: dict) -> None:
     """Raise ``ValueError`` unless ``value`` is a finite number inside the field's range."""
     lo, hi, lo_open = meta.get("min"), meta.get("max"), meta.get("lo_open", False)
@@ -178,7 +198,7 @@ def check_range(name: str, value: Any, meta: dict) -> None:
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
     left = "(" if lo_open else "["
-    allowed = f"{left}{lo:g}, {hi:g}] {unit}".rstrip()
+    allowed = f"{left}{lo:g}, {hi:g}] {unit_name(unit)}".rstrip()
     if not math.isfinite(x):
         raise ValueError(f"{name} must be finite, got {value!r}; allowed {allowed}")
     if lo is not None and (x < lo or (lo_open and x == lo)):
@@ -189,7 +209,7 @@ def check_range(name: str, value: Any, meta: dict) -> None:
 
 @dataclass(frozen=True)
 class OperatingPoint:
-    """Default operating inputs (the paper does not state them; MODEL.md).
+    """Default operating inputs (the paper does not state them; docs/model.md "Choices").
 
     The slip model's mesh force spans 25-60 kN in Fig. 10, so the mean mesh force is near
     42 kN, i.e. a torque near 3.9 kN.m; stick occurs below 300 r/min (Fig. 15).

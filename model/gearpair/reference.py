@@ -8,7 +8,7 @@ integrates the equations of one contact state (`equations.evaluate`). When the s
   travel, never events to hunt;
 - *unknown* switches (`switching`) are located on the solver's dense output. scipy's own event
   handling compares signs only at step ends and silently loses a crossing that begins and
-  ends inside one step (MODEL.md, "Two traps"); here every accepted step is also sampled at
+  ends inside one step (docs/model.md); here every accepted step is also sampled at
   ``n_samples`` interior points and the first fall through zero is refined with Brent's
   method, and the step is bounded by ``max_step``.
 
@@ -35,7 +35,7 @@ from .engine import (
     check_inputs,
 )
 from .equations import U1, U2, G, Model, evaluate
-from .params import GearParams
+from .params import GearParams, check_rtol
 from .switching import (
     Mode,
     event_labels,
@@ -79,8 +79,7 @@ class ReferenceEngine(Engine):
                  max_events: int = 100_000) -> None:
         if method not in METHODS:
             raise ValueError(f"method = {method!r}; choose one of {', '.join(METHODS)}")
-        if not (1e-14 <= rtol <= 1e-2):
-            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        check_rtol(rtol)
         self.model = Model.build(params, effects)
         self._prev_active = None  # pairs in contact in the last segment (set by reset)
         self._released = None  # (pair, time) of the last release of a stick

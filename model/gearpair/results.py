@@ -29,7 +29,7 @@ UNITS = {
     "gear1_speed": "rad/s",
     "gear2_speed": "rad/s", "sliding_velocity": "m/s", "stick_fraction": "1",
     "separation_fraction": "1", "mesh_force_max": "N", "n_events": "1", "torque": "N.m",
-    "speed": "rad/s",
+    "speed": "rad/s", "load_speed": "rad/s",
 }
 _CONVERT = {("m", "um"): 1e6, ("N", "kN"): 1e-3, ("rad/s", "rpm"): 1 / RPM, ("m", "mm"): 1e3}
 # Figures that describe the interval ending at their row (not an instant): merged, not sampled,
@@ -131,15 +131,20 @@ class Trajectory:
         return Trajectory(data, dict(self.meta))
 
     def to_csv(self, path: str | Path, names: Sequence[str] | None = None) -> None:
-        """Write ``time`` and the columns ``names`` (default: all) with a ``name [unit]``
-        header, SI values with 10 significant digits."""
+        """Write ``time`` and the columns ``names`` (default: all), SI values with 10
+        significant digits.
+
+        The header holds the plain names (units in `UNITS` and docs/scenes.md), so the file
+        goes unchanged into ``fmpy simulate --input-file`` (the columns ``torque``, ``speed``
+        and ``load_speed`` are the FMU's inputs) and into a scene's ``[inputs.csv]``.
+        """
         names = ["time"] + [n for n in (self.data if names is None else names) if n != "time"]
         unknown = [n for n in names if n not in self.data]
         if unknown:
             raise ValueError(f"no column {', '.join(unknown)}; recorded: {', '.join(self.data)}")
         with Path(path).open("w", newline="") as fh:
             wr = csv.writer(fh)
-            wr.writerow([f"{n} [{UNITS.get(n, '')}]" for n in names])
+            wr.writerow(names)
             cols = [self.data[n] for n in names]
             for i in range(len(self.time)):
                 wr.writerow([f"{c[i]:.10g}" for c in cols])
@@ -200,6 +205,13 @@ def _as_fn(x: Input) -> Callable[[float], float]:
     return Constant(float(x))
 
 
+def _ratio(eng: Engine, params: GearParams | None) -> float:
+    """z1/z2 of the engine's gears: the load shaft's far end turns at ``z1/z2 speed`` (the
+    nominal rotation of gear 2) in every run of `simulate`, which drives no load shaft."""
+    model = getattr(eng, "model", None)
+    return float(model.p.ratio if model is not None else (params or GearParams()).ratio)
+
+
 def simulate(params: GearParams | None = None, effects: Effects | None = None,
              t_end: float = 0.2, torque: Input | None = None, speed: Input | None = None,
              dt: float = 1e-4, engine: str | Engine = "reference", t0: float = 0.0,
@@ -254,6 +266,7 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
         data = {"time": grid, **rec}
         data["torque"] = np.r_[fT(grid[0]), T]
         data["speed"] = np.r_[fW(grid[0]), W]
+        data["load_speed"] = data["speed"] * _ratio(eng, params)
         name = engine if isinstance(engine, str) else type(engine).__name__
         return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0})
     record(0, eng.outputs(), None, fT(grid[0]), fW(grid[0]))
@@ -262,5 +275,6 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
         summ = eng.advance(grid[i], T, W)
         record(i, eng.outputs(), summ, T, W)
     data = {"time": grid, **{k: v for k, v in cols.items() if k != "time"}, **extra}
+    data["load_speed"] = data["speed"] * _ratio(eng, params)
     name = engine if isinstance(engine, str) else type(engine).__name__
     return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0})

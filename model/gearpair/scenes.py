@@ -25,7 +25,8 @@ import numpy as np
 
 from .effects import Effects, StiffnessSpec
 from .equations import check_friction_coefficients
-from .params import RPM, GearParams, OperatingPoint, check_range
+from .geometry import BORE_RATIO_MAX
+from .params import RPM, RTOL_MAX, RTOL_MIN, GearParams, OperatingPoint, check_range, unit_name
 from .results import UNITS, Constant, Trajectory, simulate
 
 if sys.version_info >= (3, 11):
@@ -37,7 +38,6 @@ ENGINES = ("fast", "reference", "fmu")
 OUTPUT_NAMES = tuple(n for n in UNITS if n != "time")
 T_END_MAX = 3600.0  # s; longer runs belong in a sweep, not one scene
 STEP_MIN, STEP_MAX = 1e-7, 1.0  # s, communication step and output interval
-RTOL_MIN, RTOL_MAX = 1e-12, 1e-3  # what both engines and the FMU accept
 _T_TOL = 1e-12  # s: a sample this close to a step's `at` counts as at it (grid round-off)
 _ROOT = Path(__file__).resolve().parents[2]  # the repository (build_fmu.py, dist/)
 
@@ -380,6 +380,7 @@ def run_fmu(scene: Scene, fmu_path: str | Path | None = None) -> Trajectory:
     held = np.concatenate([t[:1], t[:-1]])
     data["torque"] = np.array([fT(x) for x in held])
     data["speed"] = np.array([fW(x) for x in held])
+    data["load_speed"] = data["speed"] * scene.params.ratio  # nominal, as in `simulate`
     return Trajectory(data, {"engine": "fmu", "wall_time_s": wall, "fmu": str(path)})
 
 
@@ -478,14 +479,60 @@ def _resolve(base: Path, where: str, key: str, v: Any) -> Path:
     return p
 
 
-def _gear(d: dict) -> GearParams:
+_DERIVED = {"bore_ratio": ("m1", "J1", "m2", "J2"), "first_mode_hz": ("kr2",)}
+
+
+def _derivation(d: dict) -> dict[str, Any]:
+    """``[gear] bore_ratio`` and ``first_mode_hz``: what `gearpair.modal.derive_params`
+    derives, checked against the fields it would overwrite."""
+    where, out = "gear", {}
+    for key, derived in _DERIVED.items():
+        if key not in d:
+            continue
+        given = [k for k in derived if k in d]
+        if given:
+            raise SceneError(f"[gear] give {', '.join(given)} or {key} (which derives "
+                             f"{', '.join(derived)}), not both")
+        v = d[key]
+        if key == "bore_ratio" and isinstance(v, list):
+            if len(v) != 2:
+                raise SceneError(f"[gear] bore_ratio = {_show(v)}: one number for both gears "
+                                 "or [gear 1, gear 2]")
+            vals = tuple(_num(where, f"bore_ratio[{i}]", x) for i, x in enumerate(v))
+        else:
+            vals = (_num(where, key, v),)
+        for x in vals:
+            if key == "bore_ratio":
+                _range(where, key, x, 0.0, BORE_RATIO_MAX, "(bore diameter over pitch diameter)")
+            else:
+                _range(where, key, x, 0.0, 1e5, "Hz", lo_open=True)
+        out[key] = vals if len(vals) == 2 else vals[0]
+    return out
+
+
+def _derive(params: GearParams, derive: dict[str, Any], effects: Effects) -> GearParams:
+    if not derive:
+        return params
+    from .modal import derive_params
+
+    try:
+        return derive_params(params, effects=effects, **derive)
+    except ValueError as exc:
+        raise SceneError(f"[gear] {exc}") from None
+
+
+def _gear(d: dict) -> tuple[GearParams, dict[str, Any]]:
+    """``[gear]``: the `GearParams` as written, and what is to be derived from them."""
     where = "gear"
     meta = {f.name: f for f in fields(GearParams)}
-    _keys(where, d, [*meta, "pressure_angle_deg"])
+    _keys(where, d, [*meta, "pressure_angle_deg", *_DERIVED])
     if "pressure_angle" in d and "pressure_angle_deg" in d:
         raise SceneError("[gear] give pressure_angle (rad) or pressure_angle_deg, not both")
+    derive = _derivation(d)
     kw: dict[str, Any] = {}
     for key, v in d.items():
+        if key in _DERIVED:
+            continue
         if key == "pressure_angle_deg":
             m = meta["pressure_angle"].metadata
             deg = _range(where, key, _num(where, key, v), math.degrees(m["min"]),
@@ -496,7 +543,7 @@ def _gear(d: dict) -> GearParams:
         else:
             kw[key] = _num(where, key, v)
     try:
-        return GearParams(**kw)
+        return GearParams(**kw), derive
     except ValueError as exc:  # GearParams' messages start with the field name
         raise SceneError(f"[{where}] {exc}") from None
 
@@ -666,7 +713,7 @@ def _csv_series(d: Any, base: Path) -> dict[str, Series]:
         if bad:
             raise SceneError(f"[{where}] file {path}, row {bad[0] + 2}, column {cols[k]!r}: "
                              f"{k} = {values[k][bad[0]]:g} is out of range; allowed "
-                             f"[{lo:g}, {hi:g}] {unit}")
+                             f"[{lo:g}, {hi:g}] {unit_name(unit)}".rstrip())
         out[k] = Series(tuple(values["time"]), tuple(x * factor for x in values[k]),
                         f"{path.name}:{cols[k]}")
     return out
@@ -751,8 +798,9 @@ def parse_scene(doc: dict, base: str | Path = ".", name: str = "scene",
                                                         "outputs")}
     t_end = _range("", "t_end", _num("", "t_end", doc.get("t_end", 0.2)), 0.0, T_END_MAX, "s",
                    lo_open=True)
-    params = _gear(sec["gear"])
+    params, derive = _gear(sec["gear"])
     effects = _effects(sec["effects"], base, params)
+    params = _derive(params, derive, effects)
     inputs = _inputs(sec["inputs"], base)
     solver = _solver(sec["solver"])
     outputs = _outputs(sec["outputs"], t_end)

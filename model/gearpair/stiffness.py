@@ -1,4 +1,4 @@
-"""Mesh stiffness per tooth pair against contact position (Fig. 4; MODEL.md "Choices").
+"""Mesh stiffness per tooth pair against contact position (Fig. 4; docs/model.md "Choices").
 
 All laws are reduced once, at model build, to a table of per-pair stiffness against the
 position ``xi`` along the path of contact (from A), scaled so that the time mean of the total

@@ -49,7 +49,7 @@ import numpy as np
 
 from . import analysis
 from .effects import Effects, StiffnessSpec
-from .params import RPM, GearParams
+from .params import RPM, RTOL_MIN, GearParams
 
 # Inputs that are not GearParams fields, with their units.
 INPUTS = {"speed_rpm": "r/min", "torque": "N.m"}
@@ -560,7 +560,7 @@ def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
 
 
 def _tighter(rtol: float, attempt: int) -> float:
-    return max(rtol / 10.0 ** (attempt - 1), 1e-13)
+    return max(rtol / 10.0 ** (attempt - 1), RTOL_MIN)
 
 
 def _local_cluster(workers: int | None):
@@ -661,6 +661,21 @@ def _axis_label(name: str) -> str:
     return f"{name} ({unit})" if unit and unit != "1" else name
 
 
+def sweep_title(name: str, s: SweepSettings) -> str:
+    """Figure title: what is swept and the operating point held (speed, torque, mu, the
+    changed gear data) with the effects."""
+    over = dict(s.params)
+    held = [f"{s.speed_rpm:g} r/min" if name != "speed_rpm" else None,
+            f"{s.torque:g} N.m" if name != "torque" else None,
+            f"mu {over.get('mu', GearParams().mu):g}" if name != "mu" else None]
+    held += [f"{k} {v:g}" for k, v in over.items() if k not in ("mu", name)]
+    eff = f"friction {s.friction}, stiffness {s.stiffness}, sliding {s.sliding}, tie {s.stick_tie}"
+    if not s.separation:
+        eff += ", no separation"
+    return (f"sweep of {name} at {', '.join(h for h in held if h)}\n{eff}; "
+            f"rtol {s.rtol:g}")
+
+
 def plot_sweep(result: SweepResult, path: str | Path, title: str | None = None) -> Path:
     """Ratios against the swept value (Figs. 15, 17, 18) over the Poincare section of the DTE
     (Fig. 16); failed points are red crosses on the axis."""
@@ -687,8 +702,7 @@ def plot_sweep(result: SweepResult, path: str | Path, title: str | None = None) 
     ax2.set_ylabel("DTE, one sample per mesh period (um)")
     ax2.grid(alpha=0.3)
     s = result.settings
-    fig.suptitle(title or f"{s.friction}, tie {s.stick_tie}, sliding {s.sliding}: "
-                 f"sweep of {result.name}", fontsize=10)
+    fig.suptitle(title or sweep_title(result.name, s), fontsize=10)
     fig.savefig(path, dpi=120)
     return Path(path)
 
@@ -718,33 +732,64 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "sweep", help="stick/contact-loss ratios and bifurcation data over a parameter (dask)",
         description="Sweep one parameter; writes PREFIX.csv, PREFIX_poincare.csv, PREFIX.json "
                     "and PREFIX.png. Example: gearpair sweep speed_rpm 5:600:300 --out speed")
-    s.add_argument("param", help="speed_rpm, torque or a GearParams field (e.g. mu)")
-    s.add_argument("values", help="a,b,c or start:stop:num")
-    s.add_argument("--out", default="sweep", help="output prefix (default: sweep)")
-    s.add_argument("--scheduler", default=None,
-                   help="address of a running dask scheduler; 'serial' runs in this process; "
-                        "default: a local cluster of --workers processes")
-    s.add_argument("--workers", type=int, default=None, help="local worker processes")
-    s.add_argument("--retries", type=int, default=1, help="reruns of a failed point")
-    s.add_argument("--torque", type=float, default=d.torque, help="N.m")
-    s.add_argument("--speed-rpm", type=float, default=d.speed_rpm)
+    from .effects import FRICTION_LAWS, SLIDING_VARIANTS, STICK_TIES, STIFFNESS_KINDS
+    from .params import RTOL_MAX
+
+    s.add_argument("param", help="what to sweep: speed_rpm (r/min), torque (N.m) or a "
+                   "GearParams field in SI units (e.g. mu, kb1, module)")
+    s.add_argument("values", help="a,b,c or start:stop:num (num evenly spaced values, both "
+                   "ends included), in the unit of PARAM")
+    s.add_argument("--out", default="sweep", metavar="PREFIX", help="output prefix: writes "
+                   "PREFIX.csv, PREFIX_poincare.csv, PREFIX.json, PREFIX.png (its folder is "
+                   "created); default sweep")
+    s.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of a running dask scheduler (tcp://host:port); 'serial' runs "
+                   "in this process; default: a local cluster of --workers processes")
+    s.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes; default: the number of CPU cores")
+    s.add_argument("--retries", type=int, default=1, metavar="N",
+                   help="reruns of a failed point, each with a ten times tighter rtol; "
+                   "default 1")
+    s.add_argument("--torque", type=float, default=d.torque, metavar="NM",
+                   help=f"driving torque on gear 1 when not swept (N.m); default {d.torque:g}")
+    s.add_argument("--speed-rpm", type=float, default=d.speed_rpm, metavar="RPM",
+                   help=f"speed of gear 1 when not swept (r/min); default {d.speed_rpm:g}")
     s.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="change a GearParams field, e.g. --set mu=0.03 (repeatable)")
-    s.add_argument("--friction", default=d.friction,
-                   help="stick_slip (the paper's model) or nominal (the slip model)")
-    s.add_argument("--stick-tie", default=d.stick_tie)
-    s.add_argument("--sliding", default=d.sliding)
-    s.add_argument("--stiffness", default=d.stiffness)
-    s.add_argument("--no-separation", action="store_true")
-    s.add_argument("--rtol", type=float, default=d.rtol)
-    s.add_argument("--steps-per-period", type=int, default=d.steps_per_period)
-    s.add_argument("--transient-periods", type=int, default=d.transient_periods)
-    s.add_argument("--transient-time", type=float, default=d.transient_time, help="s")
-    s.add_argument("--kept-periods", type=int, default=d.kept_periods)
-    s.add_argument("--max-time", type=float, default=d.max_time,
-                   help="soft cap of simulated seconds per point")
-    s.add_argument("--no-plot", action="store_true")
-    s.add_argument("--quiet", action="store_true", help="no progress bar")
+                   help="change a GearParams field (SI), e.g. --set mu=0.03; repeatable; "
+                   "default: Table 1")
+    s.add_argument("--friction", default=d.friction, choices=FRICTION_LAWS,
+                   help="friction law: stick_slip (the paper's model), nominal (the slip "
+                   f"model), regularized or off; default {d.friction}")
+    s.add_argument("--stick-tie", default=d.stick_tie, choices=STICK_TIES,
+                   help=f"how stuck teeth move together: exact (v = 0) or paper (Eq. 19); "
+                   f"default {d.stick_tie}")
+    s.add_argument("--sliding", default=d.sliding, choices=SLIDING_VARIANTS,
+                   help=f"sliding velocity: paper (Eq. 12) or full; default {d.sliding}")
+    s.add_argument("--stiffness", default=d.stiffness,
+                   choices=[k for k in STIFFNESS_KINDS if k != "table"],
+                   help=f"mesh stiffness law; default {d.stiffness}")
+    s.add_argument("--no-separation", action="store_true",
+                   help="teeth never separate (a linear mesh spring); default: they do")
+    s.add_argument("--rtol", type=float, default=d.rtol,
+                   help=f"relative tolerance of the fast engine, [{RTOL_MIN:g}, "
+                   f"{RTOL_MAX:g}]; default {d.rtol:g}")
+    s.add_argument("--steps-per-period", type=int, default=d.steps_per_period, metavar="N",
+                   help="engine steps (samples) per mesh period for the DTE and mesh force "
+                   f"statistics; default {d.steps_per_period}")
+    s.add_argument("--transient-periods", type=int, default=d.transient_periods, metavar="N",
+                   help=f"mesh periods discarded before the kept ones; default "
+                   f"{d.transient_periods}")
+    s.add_argument("--transient-time", type=float, default=d.transient_time, metavar="S",
+                   help=f"discard at least this many seconds (s); default {d.transient_time:g}")
+    s.add_argument("--kept-periods", type=int, default=d.kept_periods, metavar="N",
+                   help=f"mesh periods kept for ratios and the Poincare section; default "
+                   f"{d.kept_periods}")
+    s.add_argument("--max-time", type=float, default=d.max_time, metavar="S",
+                   help="soft cap of simulated seconds per point (s; both period counts are "
+                   f"cut, never below {d.min_periods}); default {d.max_time:g}")
+    s.add_argument("--no-plot", action="store_true", help="do not draw PREFIX.png; default: "
+                   "draw it (needs matplotlib)")
+    s.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     return s
 
 

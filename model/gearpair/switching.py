@@ -19,8 +19,8 @@ broke, and slip continues away from v = 0 (no chatter at the release).
 
 With ``stick_tie="paper"`` the static friction of Eq. (20)-(21) lacks the rate of the nominal
 sliding velocity. Then Eq. (14) may release a stick while the slip dynamics on both sides push
-``v_j`` back to zero (the band of MODEL.md, "Two traps"), and a literal implementation stalls.
-Rule used here: a pair sticks while
+``v_j`` back to zero (the band of docs/model.md, "The paper's tie and the switching rule"),
+and a literal implementation stalls. Rule used here: a pair sticks while
 ``min(|f_static,paper|, |f_static,exact|) <= mu_static f_mesh``;
 it is released only when both exceed the limit, in the direction of the exact one. So the
 paper tie can only lengthen sticks, never chatter.

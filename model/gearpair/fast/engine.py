@@ -10,7 +10,7 @@ import numpy as np
 from ..effects import Effects
 from ..engine import Engine, Outputs, StepSummary, check_inputs
 from ..equations import U2, Model
-from ..params import GearParams
+from ..params import GearParams, check_rtol
 from .layout import (
     FRICTION_CODE,
     I_BACK,
@@ -283,8 +283,7 @@ class FastEngine(Engine):
     def __init__(self, params: GearParams | None = None, effects: Effects | None = None,
                  rtol: float = 1e-8, **options) -> None:
         opts = FastOptions(**options)
-        if not (1e-14 <= rtol <= 1e-2):
-            raise ValueError(f"rtol = {rtol!r} is out of range; allowed [1e-14, 1e-2]")
+        check_rtol(rtol)
         m = self.model = Model.build(params, effects)
         self.rtol = float(rtol)
         self.atol = SCALE * rtol if opts.atol is None else np.full(N_Y, float(opts.atol))

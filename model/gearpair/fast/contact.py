@@ -75,7 +75,7 @@ from .layout import (
 )
 
 
-@jit
+@jit_inline
 def sgn(x, fallback):
     if x > 0.0:
         return 1.0
@@ -84,7 +84,7 @@ def sgn(x, fallback):
     return fallback
 
 
-@jit
+@jit_inline
 def wrap(x, per):
     """x mod per in [0, per) (numpy's mod for a positive divisor)."""
     r = x - per * math.floor(x * (1.0 / per))
@@ -95,7 +95,7 @@ def wrap(x, per):
     return r
 
 
-@jit
+@jit_inline
 def pair_xi(par, s, j):
     """Position from A of tracked pair j held in contact at mesh travel s (Model.contact)."""
     per, L = par[P_PER], par[P_L]
@@ -133,17 +133,18 @@ def pair_k(md, xi, xi_idx, nact):
 
 
 @jit_inline
-def pair_k_slope(md, xi, xi_idx, nact):
-    """The slope d k/d xi of `pair_k` (N/m per m)."""
+def pair_k_and_slope(md, xi, xi_idx, nact):
+    """`pair_k` and its slope d k/d xi (N/m per m), from one table look-up."""
     if md.flag[I_KIND] == KIND_CONSTANT:
-        return 0.0
+        return md.par[P_KMEAN] / max(nact, 1), 0.0
+    tk = md.k_coef
     i = table_index(md, xi_idx)
+    d = xi - md.xi_knots[i]
     if md.flag[I_KIND] == KIND_CUBIC:
-        tk = md.k_coef
-        d = xi - md.xi_knots[i]
         c = 4 * i
-        return (3.0 * tk[c + 3] * d + 2.0 * tk[c + 2]) * d + tk[c + 1]
-    return md.k_slope[i]
+        return (((tk[c + 3] * d + tk[c + 2]) * d + tk[c + 1]) * d + tk[c],
+                (3.0 * tk[c + 3] * d + 2.0 * tk[c + 2]) * d + tk[c + 1])
+    return tk[i] + d * md.k_slope[i], md.k_slope[i]
 
 
 @jit
@@ -200,8 +201,8 @@ def mesh_forces(md, wk, pc, s, s_idx, y):
         s1m = mp[P_S1A] + xi
         pw[W_S1M, i] = s1m
         pw[W_S2M, i] = mp[P_S1S2] - s1m
-        pw[W_DK, i] = pair_k_slope(md, xi, xi + (s_idx - s), pc.nact)
-        k = pair_k(md, xi, xi + (s_idx - s), pc.nact)
+        k, dk = pair_k_and_slope(md, xi, xi + (s_idx - s), pc.nact)
+        pw[W_DK, i] = dk
         pw[W_K, i] = k
         km += k
     delta = y[1] - y[4] + y[2] + y[5]
@@ -296,7 +297,7 @@ def pin_supports(sc):
     sc[S_F + 4] = 0.0
 
 
-@jit
+@jit_inline
 def static_friction_system(md, wk, pc, y, ns):
     """Rows a_a, columns w_b of the stuck pairs' system (equations.static_friction) into
     ``wk.solve``; rhs -(c + a M^-1 F) for the chosen tie (column ns) and the exact tie
@@ -336,7 +337,7 @@ def static_friction_system(md, wk, pc, y, ns):
         ra += 1
 
 
-@jit
+@jit_inline
 def static_friction(md, wk, pc, y, ns):
     """Static friction of the ``ns`` stuck pairs: solve their system and apply it."""
     mp, pw, sc, Sm = md.par, wk.pair, wk.scal, wk.solve

@@ -67,7 +67,7 @@ def interp(md, R, nf, theta, out):
         out[m] = R[0, m] + acc
 
 
-@jit
+@jit_inline
 def hermite(R, y, ynew, K, hh, nfs):
     """Rows 0-3 of the continuous extension (`interp`): alone, the cubic Hermite of the step
     ends (K[0] at the start, K[nfs] at the end); returns its row count."""
@@ -145,7 +145,7 @@ def events_light(md, wk, pc, hs, t, yk, g):
     return km * (delta + mp[P_BACK] if sep == 2 else delta)
 
 
-@jit
+@jit_inline
 def illinois_point(a, ga, b, gb):
     """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b)."""
     c = b - gb * (b - a) / (gb - ga)
@@ -154,7 +154,7 @@ def illinois_point(a, ga, b, gb):
     return c
 
 
-@jit
+@jit_inline
 def illinois(a, ga, b, gb, c, gc, side):
     """Shrink the bracket with the value gc at c; halve the stale end's value when the same
     end moves twice (what keeps regula falsi superlinear). Returns a, ga, b, gb, side."""

@@ -261,7 +261,7 @@ def segment(md, wk, hs, tb, lti):
     hs.mode[J_NPREV] = nact
 
 
-@jit
+@jit_inline
 def current_active(md, wk, hs):
     """The pairs of the last segment (a state on a boundary keeps its set), else the set at
     the current mesh travel, into wk.active; returns their number."""
@@ -367,7 +367,7 @@ def advance(md, wk, hs, t_end, torque, speed, lti):
     hs.mode[J_NEVTOT] += int(summ[O_NEV])
 
 
-@jit
+@jit_inline
 def eval_now(md, wk, hs):
     """Evaluate at the current state (active set of the last segment); returns nact."""
     st = hs.clock

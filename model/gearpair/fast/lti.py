@@ -55,7 +55,7 @@ PADE6 = np.array([math.factorial(12 - k) * math.factorial(6)
 G_DTE = (0.0, 1.0, 1.0, 0.0, -1.0, 1.0)  # d delta / d q
 
 
-@jit
+@jit_inline
 def matmul(A, B, C):
     """C = A B (NZ x NZ)."""
     for i in range(NZ):
@@ -68,7 +68,7 @@ def matmul(A, B, C):
                     C[i, j] += a * B[k, j]
 
 
-@jit
+@jit_inline
 def matvec(P, z, out):
     for i in range(NZ):
         acc = 0.0
@@ -187,7 +187,7 @@ def expm(A, h, E, S):
             E[i, j] *= d[i] / d[j]
 
 
-@jit
+@jit_inline
 def z_to_y(z, y):
     for m in range(12):
         y[m] = z[m]
@@ -266,7 +266,7 @@ def lti_slot(md, wk, pc, hs, km, h):
     return k_new
 
 
-@jit
+@jit_inline
 def free_index(nf, a):
     """The coordinate of free coordinate a: u1, u2 (torsional) or all six."""
     return (2, 5)[a] if nf == 2 else a
@@ -355,7 +355,7 @@ def lti_quiet(md, A, z, cs, W):
     return comp_p < 0.0 and bound <= -mp[P_RTOL] * comp_p
 
 
-@jit
+@jit_inline
 def comp_of(par, z, cs):
     if cs == 1:
         return 0.0
@@ -363,7 +363,7 @@ def comp_of(par, z, cs):
     return d + par[P_BACK] if cs == 2 else d
 
 
-@jit
+@jit_inline
 def stored_change(par, z0, z1, km, cs):
     """Stored energy at z1 minus at z0 (J): kinetic, supports, load shaft, mesh spring (as
     `energy`), each as k (x1 - x0)(x1 + x0) / 2 so that a small change of a large stored
@@ -396,7 +396,7 @@ def lti_finish(par, y, z0, z1, dt, km, cs):
     z_to_y(z1, y)
 
 
-@jit
+@jit_inline
 def lti_fint(par, z0, z1, h, km, cs, quiet):
     """Time integral (N s) of the mesh force km * compression over an exact stretch z0 -> z1
     of h seconds: the trapezoid with its end-slope correction h^2/12 (f0' - f1') (error

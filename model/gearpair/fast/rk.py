@@ -32,7 +32,7 @@ from .tableaux import M_DOP853, RK_A, RK_C, RK_E, RK_E3, RK_NS, RK_Q
 EPS = 2.220446049250313e-16
 
 
-@jit
+@jit_inline
 def stage(meth, stg, y, K, hh, ytmp):
     """ytmp = y + hh sum_j a[stg, j] K[j] (zero couplings skipped: DOP853 has many)."""
     for m in range(N_Y):

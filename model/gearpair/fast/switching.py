@@ -127,7 +127,7 @@ def switch(md, wk, pc, hs, label, s):
         dirs[j] = sgn(lam_e, 1.0)
 
 
-@jit
+@jit_inline
 def kinetic(par, y):
     """Kinetic energy 0.5 q'^T M q' (J)."""
     e = 0.0

@@ -3,8 +3,12 @@
 Thin plumbing over the engine contract in ``gearpair.engine``: parameters and effect switches
 become FMU parameters, ``do_step`` validates the inputs, advances the engine to exactly
 ``currentCommunicationPoint + communicationStepSize`` and copies its outputs. Nothing raises
-out of the slave (pythonfmu would turn any exception into fmi2Fatal): every problem is logged
-with fmi2Error and the step returns False (fmi2Discard) with the state left as it was.
+out of the slave (pythonfmu would turn any exception into fmi2Fatal). A refusal (invalid
+parameters or combination at initialization, a wrong communication point, a state that
+cannot be restored) is logged with status error and changes nothing; the FMU's C layer
+(``fmu_src/c/gearpair_shim.c``) turns a call during which the slave logged an error into
+fmi2Error. A step the integrator cannot complete is logged with status discard and returns
+False (fmi2Discard) with the state of the step start.
 
 The ``gearpair`` package is imported from the FMU's resources folder, where the builder
 (``build_fmu.py``) puts a copy of it, under the private name ``_gearpair_fmu`` (`BUNDLE`),
@@ -107,51 +111,6 @@ _SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
 _VALUE_ORDER = _OUTPUT_FIELDS[:3] + ("contact_state",) + _OUTPUT_FIELDS[3:]  # `_copy_values`
 
 
-_EXIT_GUARDED: set[str] = set()  # binaries whose exit hook `_guard_pythonfmu_exit` set
-
-
-def _guard_pythonfmu_exit(resources: str | None) -> str | None:
-    """Work around a use-after-free at process exit in pythonfmu 0.7's Linux binary.
-
-    The binary holds its interpreter guard in a static ``shared_ptr`` and empties it again
-    from an ELF destructor (``finalizePythonInterpreter``). At exit the C++ runtime destroys
-    the static first (its ``__cxa_atexit`` handler), so the ELF destructor then decrements a
-    reference count inside the freed block. valgrind shows the invalid access on every run;
-    whether glibc notices depends on the heap layout, and then the process aborts after its
-    work is done ("corrupted double-linked list", in libgfortran's exit code).
-
-    In a Python host the guard owns nothing (the host initialised Python), so emptying the
-    static from Python's own exit hook, which runs before any C++ exit handler, turns both
-    later releases into no-ops; instances still alive keep their own reference. A host that
-    is not Python has the guard finalise the interpreter from the guard's own thread, which
-    then runs Python's exit hooks: there the hook must not touch the static, so it is set only
-    when the slave is created on Python's main thread (not the case there: that thread is the
-    guard's). Returns the binary guarded, or None.
-    """
-    import threading
-
-    if not sys.platform.startswith("linux") or not resources or \
-            threading.current_thread() is not threading.main_thread():
-        return None
-    folder = os.path.join(os.path.dirname(os.path.abspath(resources)), "binaries", "linux64")
-    try:
-        import atexit
-        import ctypes
-
-        names = sorted(n for n in os.listdir(folder) if n.endswith(".so"))
-        if len(names) != 1:
-            return None
-        path = os.path.join(folder, names[0])
-        # the copy already loaded by the host (RTLD_NOLOAD: never load a second one)
-        release = ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_LAZY).finalizePythonInterpreter
-    except (OSError, AttributeError, ImportError):
-        return None
-    if path not in _EXIT_GUARDED:
-        _EXIT_GUARDED.add(path)
-        atexit.register(release)
-    return path
-
-
 def _unlist_resources(resources: str | None) -> None:
     """Take the resources folder off ``sys.path`` again.
 
@@ -225,10 +184,10 @@ def interface(gp=None) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
 
     def add(name, typ, causality, variability, unit=None, display_unit=None, lo=None,
-            hi=None, start=None, description=""):
+            hi=None, start=None, description="", lo_open=False):
         out.append(dict(name=name, type=typ, causality=causality, variability=variability,
                         unit=unit, display_unit=display_unit, min=lo, max=hi, start=start,
-                        description=description))
+                        description=description, lo_open=lo_open))
 
     display_in = {"torque": None, "speed": "rpm"}
     for f in fields(params_mod.OperatingPoint):
@@ -250,7 +209,7 @@ def interface(gp=None) -> list[dict[str, Any]]:
             doc += f" (must be > {row['min']:g})"
         add(row["name"], "Integer" if is_int else "Real", "parameter", "fixed",
             None if is_int else row["unit"], _PARAM_DISPLAY_UNIT.get(row["unit"]),
-            row["min"], row["max"], row["default"], doc)
+            row["min"], row["max"], row["default"], doc, lo_open=bool(row.get("lo_open")))
 
     for name in ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
                  "stick_tie", "engine", "backlash", "dof"):
@@ -288,6 +247,23 @@ def interface(gp=None) -> list[dict[str, Any]]:
         "Stribeck velocity v_s: the sliding coefficient is mu + (mu_static - mu) "
         "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3")
     return out
+
+
+def _combination_error(values) -> str | None:
+    """The first combination of parameters the model refuses, said in the FMU's names and
+    codes (``values`` has the parameters as attributes, codes already in range), or None."""
+    def code(name: str) -> str:
+        c = int(getattr(values, name))
+        return f"{name} = {c} ({CHOICES[name][1][c]})"
+
+    if values.dof == 1 and values.friction_law == 3 and values.sliding == 0:
+        return (f"{code('dof')} with {code('friction_law')} needs sliding = 1 (full): the "
+                "paper's sliding velocity (Eq. (12)) moves only with the support deflections, "
+                "which the torsional model holds still, so no stick could form")
+    if values.backlash > 0.0 and not values.separation:
+        return (f"backlash = {values.backlash:g} m needs separation = true: a back flank "
+                "only matters once the drive flanks can separate")
+    return None
 
 
 class _StateUnpickler(pickle.Unpickler):
@@ -338,7 +314,6 @@ class GearPair(Fmi2Slave):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        _guard_pythonfmu_exit(self.resources)
         _unlist_resources(self.resources)
         self._gp = _import_gearpair(self.resources)
         self._warn_foreign_package()
@@ -354,12 +329,19 @@ class GearPair(Fmi2Slave):
             else:
                 setattr(self, v["name"], float(start) if start is not None else 0.0)
             self._register(v)
+        self._fast_step = None  # `_make_fast_step`, after the first step
+        by_type = {t: {vr: v.name for vr, v in self.vars.items() if type(v) is c}
+                   for t, c in (("Real", Real), ("Integer", Integer))}
+        self._real_names = by_type["Real"]  # value reference -> attribute: `get_real`
+        self._integer_names = by_type["Integer"]
+        self._input_names = {vr: v.name for vr, v in self.vars.items()
+                             if type(v) is Real and v.causality == Fmi2Causality.input}
         self._engine = None
         self._engine_key: tuple | None = None  # parameter values the engine was built with
         self._params_set = True  # a parameter was set since the last comparison with the key
         self._start_time = 0.0
         self._stepped = False  # at least one step done since initialization
-        self._poisoned: str | None = None  # set when a state restore failed
+        self._poisoned: str | None = None  # set when a failed step lost the engine state
 
     # -- setup -------------------------------------------------------------------------------
     def _register(self, v: dict) -> None:
@@ -408,6 +390,9 @@ class GearPair(Fmi2Slave):
                 listing = ", ".join(f"{i} ({c})" for i, c in enumerate(codes))
                 raise ValueError(f"{name} = {code!r} is out of range; allowed {listing}")
             choice[field_name] = codes[int(code)]
+        msg = _combination_error(self)
+        if msg is not None:
+            raise ValueError(msg)
         params_mod.check_range("v_eps", self.v_eps, {"unit": "m/s", "min": 1e-9, "max": 1.0})
         params_mod.check_rtol(self.rtol)
         params_mod.check_range("backlash", self.backlash,
@@ -430,6 +415,7 @@ class GearPair(Fmi2Slave):
         if make is not None:
             if engine == "fast":
                 try:
+                    self._load_fast_engine()
                     return make(params, effects, engine="fast", rtol=float(self.rtol))
                 except ImportError as exc:  # numba missing in this host's Python
                     self.log(f"engine fast unavailable ({exc}); using engine reference",
@@ -437,6 +423,19 @@ class GearPair(Fmi2Slave):
             return make(params, effects, engine="reference", rtol=float(self.rtol))
         reference = importlib.import_module(gp.__name__ + ".reference")
         return reference.ReferenceEngine(params, effects, rtol=float(self.rtol))
+
+    def _load_fast_engine(self) -> None:
+        """Load the fast engine's compiled code (shipped in this FMU, from the user cache, or
+        compiled now) once per process, and say which and how long it took (status OK)."""
+        jitcache = importlib.import_module(self._gp.__name__ + ".jitcache")
+        try:
+            report = jitcache.load_engine()
+        except Exception as e:  # noqa: BLE001 - the engine then compiles on first use
+            self.log(f"fast engine: loading its compiled code failed ({type(e).__name__}: "
+                     f"{e}); it compiles on first use", Fmi2Status.warning)
+            return
+        if report["first"]:
+            self.log(jitcache.describe(report, "this FMU"), Fmi2Status.ok)
 
     def _ensure_engine(self) -> str | None:
         """Build the engine if needed; return an error message or None."""
@@ -454,7 +453,7 @@ class GearPair(Fmi2Slave):
         try:
             engine = self._build_engine()
         except (ValueError, TypeError, ArithmeticError) as e:
-            return f"invalid parameters: {e}"
+            return f"invalid parameters: {e}"  # names the parameter(s)
         except Exception as e:  # noqa: BLE001 - nothing may escape the slave
             return f"engine construction failed: {type(e).__name__}: {e}"
         self._engine, self._engine_key = engine, key
@@ -469,7 +468,7 @@ class GearPair(Fmi2Slave):
                   o.sliding_velocity)
         if summary is None:
             cs = int(o.contact_state)
-            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs in (0, 3) else 0.0, o.mesh_force, 0)
+            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs == 0 else 0.0, o.mesh_force, 0)
         else:
             figures = (summary.stick_fraction, summary.separation_fraction,
                        summary.mesh_force_max, summary.n_events)
@@ -511,8 +510,9 @@ class GearPair(Fmi2Slave):
 
     def exit_initialization_mode(self):
         # Outputs at the start time, so a master reading them before the first step sees the
-        # static equilibrium. Errors are reported here and again by the first do_step (which
-        # returns fmi2Discard): this call cannot return an error status without a fatal one.
+        # static equilibrium. A refusal is logged with status error: the C layer returns
+        # fmi2Error and keeps the instance in initialization mode, where the master may
+        # correct a parameter and call fmi2ExitInitializationMode again.
         try:
             msg = self._ensure_engine()
             if msg is None:
@@ -525,7 +525,7 @@ class GearPair(Fmi2Slave):
                 return
         except Exception as e:  # noqa: BLE001
             msg = f"initialization failed: {type(e).__name__}: {e}"
-        self.log(msg, Fmi2Status.error)
+        self.log(f"fmi2ExitInitializationMode refused: {msg}", Fmi2Status.error)
 
     def _check_inputs(self) -> str | None:
         try:
@@ -539,9 +539,104 @@ class GearPair(Fmi2Slave):
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         try:
-            return self._do_step(float(current_time), float(step_size))
+            fast = self._fast_step
+            if fast is not None:
+                done = fast(current_time, step_size)
+                if done is not None:
+                    return done
+            done = self._do_step(float(current_time), float(step_size))
+            if done and fast is None:
+                self._fast_step = self._make_fast_step()
+            return done
         except Exception as e:  # noqa: BLE001 - never let an exception reach pythonfmu
             return self._error(f"internal error in do_step: {type(e).__name__}: {e}")
+
+    def _make_fast_step(self):
+        """The usual doStep of the fast engine as one closure, or None (another engine).
+
+        It takes the step when nothing needs a word: the engine built at initialization is
+        still the slave's, no parameter was set since, a step was done, the step size is
+        positive and finite, the communication point is the FMU's time and the inputs are
+        floats in range (`gearpair.engine.check_inputs`). It makes the same engine calls as
+        `_do_step` and so gives bit-identical outputs; it only skips the lookups and checks
+        made for the general case. Anything else, a failed or non-finite step included
+        (rolled back first), returns None and `_do_step` then handles the call and says why.
+        """
+        eng = self._engine
+        advance = getattr(eng, "advance_values", None)
+        snapshot, restore = getattr(eng, "snapshot", None), getattr(eng, "restore", None)
+        if advance is None or snapshot is None or restore is None:
+            return None
+        outputs = eng.output_values
+        with_load = bool(self.load_speed_input)
+        isfinite, inf = math.isfinite, math.inf
+
+        def step(t, h):
+            if self._engine is not eng or self._params_set or self._poisoned or \
+                    not self._stepped:
+                return None
+            torque, speed = self.torque, self.speed
+            if not (type(t) is float and type(h) is float and 0.0 < h < inf and
+                    type(torque) is float and type(speed) is float and
+                    abs(torque) <= 1e6 and abs(speed) <= 2e4):
+                return None
+            load = None
+            if with_load:
+                load = self.load_speed
+                if type(load) is not float or not abs(load) <= 2e4:
+                    return None
+            if not abs(t - eng.time) <= 1e-9 * max(1.0, abs(t), h):
+                return None
+            saved = snapshot()
+            try:
+                f = advance(t + h, torque, speed, load)
+                values = outputs().tolist()
+                ok = isfinite(sum(values) + f[0] + f[1] + f[2])
+            except Exception:  # noqa: BLE001 - `_do_step` repeats the step and reports
+                ok = False
+            if not ok:
+                restore(saved)
+                return None
+            (self.dte, self.mesh_force, self.friction_force, cs, self.output_torque,
+             self.input_torque_reaction, self.input_torque, self.gear1_speed,
+             self.gear2_speed, self.sliding_velocity) = values
+            self.contact_state = int(cs)
+            self.stick_fraction, self.separation_fraction = float(f[0]), float(f[1])
+            self.mesh_force_max, self.n_events = float(f[2]), int(f[3])
+            return True
+
+        return step
+
+    # pythonfmu's getters and setters call one Python function per variable; these serve the
+    # per-step calls (outputs, inputs) straight from the instance's attributes and leave
+    # everything else (parameters with their setters, wrong types) to pythonfmu. (Plain loops:
+    # cheaper than comprehensions for a handful of values.)
+    def get_real(self, vrs):
+        d, names, out = self.__dict__, self._real_names, []
+        for vr in vrs:
+            n = names.get(vr)
+            if n is None:
+                return super().get_real(vrs)
+            out.append(d[n])
+        return out
+
+    def get_integer(self, vrs):
+        d, names, out = self.__dict__, self._integer_names, []
+        for vr in vrs:
+            n = names.get(vr)
+            if n is None:
+                return super().get_integer(vrs)
+            out.append(d[n])
+        return out
+
+    def set_real(self, vrs, values):
+        d, names = self.__dict__, self._input_names
+        for vr, x in zip(vrs, values):  # noqa: B905 - as pythonfmu (a keyword costs here)
+            n = names.get(vr)
+            if n is None:  # pythonfmu sets them all again (the inputs to the same values)
+                return super().set_real(vrs, values)
+            d[n] = x
+        return None
 
     def _do_step(self, t: float, h: float) -> bool:
         if self._poisoned:
@@ -559,12 +654,11 @@ class GearPair(Fmi2Slave):
         torque, speed = float(self.torque), float(self.speed)
         snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
         saved = snap() if snap is not None else eng.get_state()
-        if self._stepped:
-            tol = 1e-9 * max(1.0, abs(t), h)
-            if abs(t - eng.time) > tol:
-                return self._error(
-                    f"step refused: currentCommunicationPoint = {t!r} s does not match the "
-                    f"FMU's time {eng.time!r} s (restore an FMU state to go back)")
+        now = eng.time if self._stepped else self._start_time  # the first step: startTime
+        if abs(t - now) > 1e-9 * max(1.0, abs(t), h):
+            return self._error(
+                f"step refused: currentCommunicationPoint = {t!r} s does not match the "
+                f"FMU's time {now!r} s (restore an FMU state to go back)")
         try:
             if not self._stepped:
                 eng.reset(t0=t, torque=torque, speed=speed, static=True)
@@ -584,9 +678,13 @@ class GearPair(Fmi2Slave):
             kind = "" if isinstance(e, (ValueError, ArithmeticError)) else \
                 f"{type(e).__name__}: "
             restored = self._restore_engine(saved)
-            return self._error(f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
-                               + ("" if restored else "; the engine state could not be "
-                                  "restored, further steps are refused"))
+            msg = f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
+            if not restored:
+                return self._error(msg + "; the engine state could not be restored, further "
+                                   "steps are refused")
+            # fmi2Discard: the state is that of the step start (lastSuccessfulTime)
+            self.log(msg + "; the state is that of the step start", Fmi2Status.discard)
+            return False
         self._copy_values(values, figures)
         self._stepped = True
         return True
@@ -618,8 +716,8 @@ class GearPair(Fmi2Slave):
 
     def _set_fmu_state(self, state) -> None:
         # Decode and rebuild everything first; touch self only when all succeeded. A failure
-        # cannot return an error status (it would be fatal), so it is logged and every later
-        # step is refused until a good state is set.
+        # is logged with status error (the C layer returns fmi2Error) and leaves the current
+        # state as it was.
         try:
             s = _loads_state(bytes(state), self._gp.__name__)
             values = s["values"]
@@ -642,8 +740,8 @@ class GearPair(Fmi2Slave):
             else:
                 engine, key = None, None
         except Exception as e:  # noqa: BLE001
-            self._poisoned = f"restoring an FMU state failed: {type(e).__name__}: {e}"
-            self.log(self._poisoned, Fmi2Status.error)
+            self.log(f"fmi2SetFMUstate refused: {type(e).__name__}: {e}; the FMU keeps its "
+                     "current state", Fmi2Status.error)
             return
         for n in names:
             setattr(self, n, values[n])

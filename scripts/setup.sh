@@ -10,6 +10,19 @@ if command -v apt-get >/dev/null 2>&1 && command -v dpkg >/dev/null 2>&1 \
     { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq libtbb12; } >/dev/null 2>&1 \
         || echo "setup.sh: could not install libtbb12; the ecospy host tests will be skipped" >&2
 fi
+# A C compiler: build_fmu.py compiles the FMU's binary (fmu_src/c) and the host tests build
+# C hosts. Installed like libtbb12 when missing and apt-get is usable.
+if ! command -v "${CC:-gcc}" >/dev/null 2>&1 && ! command -v cc >/dev/null 2>&1; then
+    if command -v apt-get >/dev/null 2>&1; then
+        SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo -n"
+        { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq gcc libc6-dev; } >/dev/null 2>&1 || true
+    fi
+    command -v "${CC:-gcc}" >/dev/null 2>&1 || command -v cc >/dev/null 2>&1 || {
+        echo "setup.sh: no C compiler found: building GearPair.fmu needs one for its binary;" \
+             "install gcc (Debian/Ubuntu: apt-get install gcc) or set CC" >&2
+        exit 1
+    }
+fi
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip 2>&1 | grep -v "^WARNING: Location" || true
 .venv/bin/python -m pip install -q -e '.[dev]' 2>&1 | grep -v "^WARNING: Location" || true

@@ -32,29 +32,3 @@ def md(fmu_path):
     """The FMU's model description, read by fmpy."""
     fmpy = pytest.importorskip("fmpy")
     return fmpy.read_model_description(str(fmu_path))
-
-
-_EXIT = {"status": None}
-
-
-def pytest_sessionfinish(session, exitstatus):
-    _EXIT["status"] = int(exitstatus)
-
-
-@pytest.hookimpl(trylast=True)
-def pytest_unconfigure(config):
-    """Skip interpreter finalization once pythonfmu slaves were loaded in this process.
-
-    pythonfmu's binary releases freed memory at process exit (docs/hosts.md, "Known
-    problem"). GearPair.fmu defuses that in Python hosts, but the driveline tests load the
-    example motor and load FMUs, plain pythonfmu slaves without the guard: their exit can
-    abort with a heap error *after* every test has passed and the report is printed, which
-    would turn a green run red. All output is flushed first, so nothing is lost.
-    """
-    import os
-    import sys
-
-    if _EXIT["status"] is not None and "fmpy" in sys.modules:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(_EXIT["status"])

@@ -14,10 +14,11 @@ from fmpy.fmi2 import (
 
 
 class LoggingSlave:
-    """An instantiated FMU2Slave (debug logging on) on an extracted FMU; ``messages`` holds
-    (status, text) of every log call and ``vr`` maps names to value references."""
+    """An instantiated FMU2Slave (debug logging on unless ``logging_on`` is false) on an
+    extracted FMU; ``messages`` holds (status, text) of every log call and ``vr`` maps names
+    to value references."""
 
-    def __init__(self, md, unzipdir: str, name: str = "gp") -> None:
+    def __init__(self, md, unzipdir: str, name: str = "gp", logging_on: bool = True) -> None:
         self.md = md
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.messages: list[tuple[int, str]] = []
@@ -32,4 +33,15 @@ class LoggingSlave:
         self._cb = cb  # keep the ctypes callbacks alive
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(callbacks=cb, loggingOn=True)
+        self.fmu.instantiate(callbacks=cb, loggingOn=logging_on)
+
+    def set(self, **values) -> None:
+        """fmi2Set* by name: a bool as Boolean, an int as Integer, anything else as Real."""
+        for name, value in values.items():
+            vr = [self.vr[name]]
+            if isinstance(value, bool):
+                self.fmu.setBoolean(vr, [value])
+            elif isinstance(value, int):
+                self.fmu.setInteger(vr, [value])
+            else:
+                self.fmu.setReal(vr, [float(value)])

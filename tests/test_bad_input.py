@@ -7,16 +7,16 @@ crashes, and the state is unchanged.
   run continues exactly as if the bad call had never been made).
 - FMU: every parameter of the model description out of its range (and NaN/inf), a fixed
   parameter changed after initialization, NaN/inf/out-of-range inputs, bad communication
-  steps. Each doStep returns fmi2Discard or fmi2Error, never fmi2Fatal; the message logged
-  names the variable; every output reads the same before and after; the instance keeps
-  working and ends bit for bit where an instance that never saw the bad value ends.
+  steps. Each is refused when it is made (the fmi2Set* call or the doStep) with fmi2Error,
+  never fmi2Fatal; a combination of parameters at fmi2ExitInitializationMode; the message
+  logged names the variable; every output reads the same before and after; the instance
+  keeps working and ends bit for bit where an instance that never saw the bad value ends.
 - Scenes: unknown keys in every section and CSV inputs whose time does not increase
   strictly (`gearpair.scenes.load_scene` raises ValueError naming the key / the column).
 """
 
 from __future__ import annotations
 
-import math
 import re
 import textwrap
 from dataclasses import fields
@@ -185,21 +185,6 @@ def unzipdir(fmu_path, md, tmp_path_factory):
     return str(extract(str(fmu_path), unzipdir=str(tmp_path_factory.mktemp("bad_unzip"))))
 
 
-def refused(slave: Slave, t: float, h: float, name: str) -> None:
-    """doStep is refused (Discard or Error, never Fatal), the message names ``name``, and
-    every output is unchanged."""
-    before = slave.get()
-    n_msgs = len(slave.messages)
-    status = slave.step(t, h)
-    assert status in (DISCARD, ERROR), f"doStep returned {STATUS_NAMES.get(status, status)}"
-    new = " | ".join(m for s, m in slave.messages[n_msgs:] if s >= DISCARD)
-    assert names_it(new, name), f"the message does not name {name!r}: {new!r}"
-    after = slave.get()
-    assert after.keys() == before.keys()
-    for k in before:
-        assert after[k] == before[k] or (math.isnan(after[k]) and math.isnan(before[k])), k
-
-
 def _gear_lo_open() -> set[str]:
     return {r["name"] for r in GearParams.describe() if r["lo_open"]}
 
@@ -225,31 +210,45 @@ def _bad_fmu_values(md) -> list[tuple[str, float]]:
     return out
 
 
+class Fresh(Slave):
+    """A Slave instantiated and set up, not initialized (parameters can still be set)."""
+
+    def __init__(self, md, unzipdir: str, name: str) -> None:
+        super(Slave, self).__init__(md, unzipdir, name)  # LoggingSlave's: no initialization
+        self.var = {v.name: v for v in md.modelVariables}
+        self.outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+        self.fmu.setupExperiment(startTime=0.0)
+
+
+def set_refused(slave: Slave, name: str, value) -> None:
+    """fmi2Set* of ``value`` is refused with fmi2Error and a message naming ``name``."""
+    from fmpy.fmi1 import FMICallException
+
+    n_msgs = len(slave.messages)
+    with pytest.raises(FMICallException) as exc:
+        slave.set(name, value)
+    assert exc.value.status == ERROR, STATUS_NAMES.get(exc.value.status, exc.value.status)
+    new = " | ".join(m for s, m in slave.messages[n_msgs:] if s >= DISCARD)
+    assert names_it(new, name), f"the message does not name {name!r}: {new!r}"
+
+
 @pytest.mark.fmu
 def test_fmu_refuses_every_invalid_parameter(md, unzipdir):
-    """One instance, the engine never built: each bad value in turn makes the step refused
-    with a message naming the parameter; the outputs never change; with the last one put
-    right the instance steps normally."""
+    """One instance: each bad value is refused when it is set, with a message naming the
+    parameter; none is taken, so the instance then initializes and steps normally."""
     bad = _bad_fmu_values(md)
     names = {n for n, _ in bad}
     gear = {f.name for f in fields(GearParams)}
     assert gear <= names and {"rtol", "v_eps", "friction_law", "stiffness_model"} <= names
-    default = {v.name: (float(v.start) if v.type == "Real" else int(v.start))
-               for v in md.modelVariables if v.causality == "parameter" and v.type != "Boolean"}
-    first_name, first_value = bad[0]
-    slave = Slave(md, unzipdir, "bad_parameters", {first_name: first_value},
-                  inputs=(TR, W10))
+    slave = Fresh(md, unzipdir, "bad_parameters")
     try:
-        # exitInitializationMode could not build the engine: it logged the error
-        assert any(names_it(m, first_name) for s, m in slave.messages if s >= DISCARD)
-        refused(slave, 0.0, 1e-4, first_name)
-        previous = first_name
-        for name, value in bad[1:]:
-            slave.set(previous, default[previous])
-            slave.set(name, value)
-            refused(slave, 0.0, 1e-4, name)
-            previous = name
-        slave.set(previous, default[previous])
+        for name, value in bad:
+            set_refused(slave, name, value)
+        slave.set("rtol", RTOL)
+        slave.set("torque", TR)
+        slave.set("speed", W10)
+        slave.fmu.enterInitializationMode()
+        slave.fmu.exitInitializationMode()
         assert slave.step(0.0, 1e-4) == fmi2OK, slave.errors()
         assert slave.get()["mesh_force"] == pytest.approx(TR / GearParams().rb1, rel=0.5)
     finally:
@@ -258,10 +257,22 @@ def test_fmu_refuses_every_invalid_parameter(md, unzipdir):
 
 @pytest.mark.fmu
 def test_fmu_refuses_a_parameter_combination_without_contact(md, unzipdir):
-    """Each value in range, together impossible: addendum 0.5 gives a contact ratio < 1."""
-    slave = Slave(md, unzipdir, "no_contact", {"addendum_coef": 0.5}, inputs=(TR, W10))
+    """Each value in range, together impossible: addendum 0.5 gives a contact ratio < 1.
+    Refused at fmi2ExitInitializationMode (fmi2Error), the instance stays in initialization
+    mode and initializes once the value is put right."""
+    slave = Fresh(md, unzipdir, "no_contact")
     try:
-        refused(slave, 0.0, 1e-4, "contact ratio")
+        slave.set("addendum_coef", 0.5)
+        slave.fmu.enterInitializationMode()
+        from fmpy.fmi1 import FMICallException
+
+        with pytest.raises(FMICallException) as exc:
+            slave.fmu.exitInitializationMode()
+        assert exc.value.status == ERROR
+        assert names_it(slave.errors(), "contact ratio"), slave.errors()
+        slave.set("addendum_coef", 1.0)
+        slave.fmu.exitInitializationMode()
+        assert slave.step(0.0, 1e-4) == fmi2OK, slave.errors()
     finally:
         slave.close()
 
@@ -290,18 +301,16 @@ def test_fmu_refuses_bad_inputs_and_steps_and_keeps_its_state(md, unzipdir):
         for name, value in BAD_INPUTS:
             if not isinstance(value, float):
                 continue  # a host can only send numbers
-            slave.set(name, value)
-            refused(slave, t, 1e-3, name)
-            slave.set(name, TR if name == "torque" else W10)
+            before = slave.get()
+            set_refused(slave, name, value)
+            assert slave.get() == before
         # a fixed parameter changed after initialization
-        slave.set("mu", 0.05)
-        refused(slave, t, 1e-3, "mu")
-        slave.set("mu", GearParams().mu)
+        set_refused(slave, "mu", 0.05)
         # communication steps that do not go forward, and a wrong communication point
         for tt, h in ((t, 0.0), (t, -1e-3), (t, NAN), (NAN, 1e-3), (t + 1e-3, 1e-3)):
             before = slave.get()
             status = slave.step(tt, h)
-            assert status in (DISCARD, ERROR), STATUS_NAMES.get(status, status)
+            assert status == ERROR, STATUS_NAMES.get(status, status)
             assert slave.get() == before
         t_end = _run(slave, t, 10)
         _run(twin, t, 10)

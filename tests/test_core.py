@@ -153,7 +153,8 @@ def test_mean_mesh_force_is_tr_over_rb1_up_to_the_friction_torque():
     speed = 600 * RPM
     period = 2 * math.pi / (speed * P.z1)
     t_end = 0.02 + 6 * period
-    base = dict(t_end=t_end, dt=period / 100, speed=speed, torque=TR, rtol=1e-7)
+    base = dict(t_end=t_end, dt=period / 100, speed=speed, torque=TR, rtol=1e-7,
+                engine="reference")
     off = simulate(P, Effects(friction="off"), **base)
     fr = simulate(P, Effects(friction="nominal"), **base)
     ideal = TR / P.rb1
@@ -190,7 +191,8 @@ def test_friction_reverses_at_the_pitch_point_nominal_law():
     fx = Effects(stiffness="constant", friction="nominal", separation=False)
     speed = 300 * RPM
     period = 2 * math.pi / (speed * P.z1)
-    tr = simulate(P, fx, t_end=2 * period, dt=period / 400, speed=speed, rtol=1e-8)
+    tr = simulate(P, fx, t_end=2 * period, dt=period / 400, speed=speed, rtol=1e-8,
+                  engine="reference")
     g = Geometry.from_params(P)
     # pair 0 enters at t = 0; it reaches P after xi_pitch / (rb1 Omega)
     t_pitch = g.xi_pitch / (P.rb1 * speed)
@@ -204,7 +206,7 @@ def test_friction_reverses_at_the_pitch_point_nominal_law():
 
 @pytest.fixture(scope="module")
 def stick_run():
-    return simulate(P, Effects(), t_end=0.06, dt=1e-4, rtol=1e-7)
+    return simulate(P, Effects(), t_end=0.06, dt=1e-4, rtol=1e-7, engine="reference")
 
 
 def test_stick_at_the_default_low_speed_point(stick_run):
@@ -220,7 +222,8 @@ def test_stick_at_the_default_low_speed_point(stick_run):
 
 
 def test_no_stick_at_600_rpm():
-    tr = simulate(P, Effects(), t_end=0.03, dt=1e-4, speed=600 * RPM, rtol=1e-7)
+    tr = simulate(P, Effects(), t_end=0.03, dt=1e-4, speed=600 * RPM, rtol=1e-7,
+                  engine="reference")
     assert tr.ratios(0.0)["stick_ratio"] == 0.0
 
 

@@ -3,7 +3,8 @@
     python examples/driveline/build.py [--out build/driveline] [--stop-time 4] [--step 1e-4]
 
 Motor and Load are pythonfmu slaves (``motor.py``, ``load.py``); their modelDescription is
-completed here with units, ranges and the model structure that pythonfmu leaves out.
+completed here with units, ranges and the model structure that pythonfmu leaves out, and
+their binary gets the project's C layer (``build_fmu.add_c_layer``) like GearPair.fmu.
 GearPair.fmu comes from ``build_fmu.build`` (or an existing file). The SSP archive holds
 ``SystemStructure.ssd`` (written by ``driveline_system.ssd_xml``) and the three FMUs in
 ``resources/``; ``SystemStructure.ssd`` is also written next to it for reading.
@@ -119,6 +120,9 @@ def build_slave(script: Path, out: Path) -> Path:
                 data = complete_model_description(data, variables)
             zout.writestr(item.filename, data)
     tmp.replace(fmu)
+    # the project's C layer over pythonfmu's binary, as in GearPair.fmu: FMI state machine,
+    # range checks, errors always logged, clean exit (docs/hosts.md)
+    _load_by_path("driveline_build_fmu", ROOT / "build_fmu.py").add_c_layer(fmu)
     return fmu
 
 

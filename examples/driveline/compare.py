@@ -11,7 +11,6 @@ the largest difference from fmpy over the run, relative to the signal's largest 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
@@ -136,7 +135,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    rc = main()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(rc)  # skip interpreter teardown: it can crash after pythonfmu slaves were freed
+    sys.exit(main())

@@ -10,7 +10,6 @@ agreement table next to the SSP and the figure to ``--out``.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -165,7 +164,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    rc = main()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(rc)  # skip interpreter teardown: it can crash after pythonfmu slaves were freed
+    sys.exit(main())

@@ -20,7 +20,6 @@ where all connected values are 0 anyway, and the stop time and step are argument
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -80,4 +79,3 @@ if __name__ == "__main__":
     print(f"t = {r['time'][-1]:g} s: motor {r['Motor.speed'][-1] / ds.RPM:.2f} r/min, "
           f"output torque {r['GearPair.output_torque'][-1]:.1f} N.m, "
           f"DTE {r['GearPair.dte'][-1] * 1e6:.3f} um", flush=True)
-    os._exit(0)  # skip interpreter teardown: it can crash after pythonfmu slaves were freed

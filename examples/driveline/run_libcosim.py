@@ -11,7 +11,6 @@ number of nanoseconds. A last-value observer reads the outputs after each step.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -89,4 +88,3 @@ if __name__ == "__main__":
     print(f"t = {r['time'][-1]:g} s: motor {r['Motor.speed'][-1] / ds.RPM:.2f} r/min, "
           f"output torque {r['GearPair.output_torque'][-1]:.1f} N.m, "
           f"DTE {r['GearPair.dte'][-1] * 1e6:.3f} um", flush=True)
-    os._exit(0)  # skip interpreter teardown: it can crash after pythonfmu slaves were freed

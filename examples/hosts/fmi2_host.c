@@ -15,8 +15,11 @@
  *     -o VR,VR,...   Real outputs to print (value references)
  *     -n VR,VR,...   Integer outputs to print
  *     -t T0          start time (default 0)
+ *     -d 1           unload the FMU's library (dlclose) after fmi2FreeInstance
  * Prints "time,<reals...>,<integers...>" for the initial state and after each step. Exits 0
  * when every call returned fmi2OK/fmi2Warning, else 1 (with the failing call on stderr).
+ * Returns from main normally: the FMU's embedded interpreter lives until the process ends
+ * and the exit is clean (docs/hosts.md).
  *
  * A pythonfmu FMU's library does not link libpython: run with
  *   LD_PRELOAD=/path/to/libpython3.X.so PYTHONPATH=<venv>/lib/python3.X/site-packages
@@ -28,7 +31,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "fmi2Functions.h"
 
@@ -95,6 +97,7 @@ int main(int argc, char **argv) {
     double rval[MAXV];
     int ival[MAXV], n_r = 0, n_i = 0, n_or = 0, n_oi = 0;
     double t = 0.0;
+    int unload = 0;
     for (int a = 6; a + 1 < argc; a += 2) {
         const char *opt = argv[a], *arg = argv[a + 1];
         if (!strcmp(opt, "-r") && n_r < MAXV) {
@@ -109,6 +112,8 @@ int main(int argc, char **argv) {
             n_oi = parse_list(arg, oivr);
         } else if (!strcmp(opt, "-t")) {
             t = strtod(arg, NULL);
+        } else if (!strcmp(opt, "-d")) {
+            unload = atoi(arg);
         } else {
             fprintf(stderr, "unknown option %s\n", opt);
             return 2;
@@ -166,11 +171,9 @@ int main(int argc, char **argv) {
     }
     CHECK(terminate(c));
     free_instance(c);
-    /* No dlclose and no normal exit: pythonfmu finalizes its embedded interpreter when the
-     * process exits, and that teardown crashes now and then inside scipy's extension
-     * modules (SIGSEGV after all results are out; the ecos host shows it too). The results
-     * are complete here, so flush and leave without running exit-time destructors. */
-    fflush(stdout);
-    fflush(stderr);
-    _exit(0);
+    if (unload && dlclose(lib) != 0) {
+        fprintf(stderr, "dlclose: %s\n", dlerror());
+        return 1;
+    }
+    return 0;
 }

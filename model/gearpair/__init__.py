@@ -13,10 +13,11 @@ __version__ = "0.1.0"
 
 
 def make_engine(params: GearParams | None = None, effects: Effects | None = None,
-                engine: str = "reference", **options) -> Engine:
+                engine: str = "fast", **options) -> Engine:
     """Build an engine by name with the given options.
 
-    ``fast``: numba-compiled stepper (`gearpair.fast.FastEngine`), the production path;
+    ``fast`` (the default): numba-compiled stepper (`gearpair.fast.FastEngine`), the
+    production path;
     ``reference``: scipy yardstick (`gearpair.reference.ReferenceEngine`).
     """
     if engine == "reference":

@@ -13,6 +13,7 @@ import argparse
 import difflib
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -166,7 +167,7 @@ def _scene_from_flags(args):
         name="command line", params=gear_from_args(args, GearParams(mu=args.mu), effects),
         effects=effects,
         inputs=Inputs(torque=Constant(op.torque), speed=Constant(op.speed)),
-        solver=Solver(engine=args.engine or "reference", rtol=args.rtol),
+        solver=Solver(engine=args.engine or "fast", rtol=args.rtol),
         outputs=OutputSpec(interval=args.dt), t_end=t_end)
     # the window as a fraction of t_end, kept even past the end (then the summary says so)
     return scene, t_end * args.steady_from, {"torque_nm": op.torque, "speed_rpm": args.speed_rpm}
@@ -180,12 +181,46 @@ def _scene_from_file(args):
         flags = ", ".join("--" + k.replace("_", "-") for k in given)
         raise ValueError(f"{flags}: set this in the scene file; with a scene only --engine, "
                          "--t-end, --out, --plot and --json apply")
-    scene = load_scene(args.scene)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_scene(args.scene)
+    for w in caught:  # one line each, before the run (e.g. an input-CSV column no input uses)
+        print(f"gearpair: warning: {w.message}", file=sys.stderr)
     if args.set or args.bore_ratio is not None or args.first_mode_hz is not None:
         scene = replace(scene, params=gear_from_args(args, scene.params, scene.effects))
     if args.t_end is not None:
         scene = scene.with_t_end(args.t_end)
     return scene, scene.t_from, {"scene_file": str(args.scene)}
+
+
+def _check_outputs(args) -> None:
+    """Refuse what would fail only after the run: create the folders of --out and --plot
+    (as ``sweep --out`` does) and check the figure format."""
+    from pathlib import Path
+
+    for flag, path in (("--out", args.out), ("--plot", args.plot)):
+        if not path:
+            continue
+        p = Path(path)
+        if p.is_dir():
+            raise ValueError(f"{flag} {path}: is a folder; give a file name")
+        try:
+            p.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"{flag} {path}: cannot create its folder ({exc.strerror})") \
+                from None
+    if args.plot:
+        try:
+            from matplotlib.backend_bases import FigureCanvasBase
+        except ImportError:  # reported by Trajectory.plot after the run
+            return
+        kinds = FigureCanvasBase.get_supported_filetypes()
+        suffix = Path(args.plot).suffix.lstrip(".").lower()
+        if suffix not in kinds:
+            raise ValueError(f"--plot {args.plot}: unknown figure format {suffix!r}; allowed "
+                             + ", ".join(sorted(kinds)))
 
 
 def _schedule_text(f, unit: str, scale: float = 1.0) -> str:
@@ -224,20 +259,31 @@ def plot_title(scene, engine: str) -> str:
 def _simulate(args) -> int:
     scene, t_from, extra = (_scene_from_file if args.scene else _scene_from_flags)(args)
     engine = args.engine or scene.solver.engine
+    _check_outputs(args)
     wall0 = time.perf_counter()
     try:
         traj = scene.run(engine)
-    except (RuntimeError, ImportError) as exc:  # a failed run or a missing extra, not bad input
+    except (RuntimeError, ArithmeticError, ImportError) as exc:
+        # a failed run or a missing extra, not bad input
         print(f"gearpair: error: {exc}", file=sys.stderr)
         return 1
-    wall = time.perf_counter() - wall0
+    # run time apart from start-up (building the engine, loading its compiled code): the
+    # FMU's run includes its instantiation, so its start-up is not known apart
+    startup = traj.meta.get("startup_s")
+    wall = traj.meta.get("wall_time_s", time.perf_counter() - wall0)
     summ = {"scene": scene.name, "engine": engine, "t_end": scene.t_end, **extra,
             "gear_changed": _changed(scene.params), **traj.summary(t_from)}
     summ["events"] = int(np.sum(traj["n_events"]))
     summ["wall_time_s"] = wall
     summ["wall_time_per_simulated_s"] = wall / scene.t_end
+    summ["startup_s"] = startup
     if args.out:
-        traj.to_csv(args.out, scene.outputs.names if args.scene else None)
+        from .scenes import OUTPUT_NAMES
+
+        names = scene.outputs.names if args.scene else None
+        if names == OUTPUT_NAMES:  # the default: what this engine recorded (the FMU has less)
+            names = [n for n in names if n in traj.data]
+        traj.to_csv(args.out, names)
         summ["out"] = args.out
     if args.plot:
         try:
@@ -249,7 +295,7 @@ def _simulate(args) -> int:
     if args.json:
         print(json.dumps(summ, indent=2))
         return 0
-    f, d = summ["mesh_force_n"], summ["dte_m"]
+    f, d = summ["mesh_force_n"], summ["dte_m_sampled"]
     if args.scene:
         print(f"scene {scene.name} ({args.scene}), engine {engine}, 0-{scene.t_end:g} s, "
               f"steady window {t_from:g}-{scene.t_end:g} s")
@@ -258,11 +304,16 @@ def _simulate(args) -> int:
               f"{engine}, steady window {t_from:g}-{scene.t_end:g} s")
     print(f"  stick ratio          {summ['stick_ratio']:.4f}")
     print(f"  contact-loss ratio   {summ['contact_loss_ratio']:.4f}")
-    print(f"  mesh force (kN)      min {f['min'] / 1e3:.2f}  mean {f['mean'] / 1e3:.2f}  "
-          f"max {f['max'] / 1e3:.2f}")
-    print(f"  DTE (um)             mean {d['mean'] * 1e6:.3f}  peak-to-peak "
+    if "back_contact_ratio" in summ:
+        print(f"  back-contact ratio   {summ['back_contact_ratio']:.4f}")
+    mean = f"mean {f['mean'] / 1e3:.2f}" if "mean" in f else \
+        f"mean of the samples {f['mean_sampled'] / 1e3:.2f}"
+    print(f"  mesh force (kN)      min {f['min'] / 1e3:.2f}  {mean}  max {f['max'] / 1e3:.2f}")
+    print(f"  DTE (um, samples)    mean {d['mean'] * 1e6:.3f}  peak-to-peak "
           f"{d['peak_to_peak'] * 1e6:.3f}")
-    print(f"  wall time            {wall:.2f} s ({wall / scene.t_end:.2f} s per simulated s)")
+    start = "" if startup is None else f"; start-up {startup:.2f} s apart"
+    print(f"  wall time            {wall:.2f} s ({wall / scene.t_end:.3f} s per simulated s"
+          f"{start})")
     for key in ("out", "plot"):
         if key in summ:
             print(f"  written {summ[key]}")
@@ -325,7 +376,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "contact state (format from the suffix, e.g. run.png; needs matplotlib)")
     s.add_argument("--engine", choices=("fast", "reference", "fmu"),
                    help="integrator: fast (numba), reference (scipy) or fmu (the built FMU "
-                   "through fmpy); default: the scene's [solver] engine, reference without "
+                   "through fmpy); default: the scene's [solver] engine, fast without "
                    "a scene")
     s.add_argument("--t-end", type=float, metavar="S", help="simulated time (s), overrides "
                    "the scene's; default 0.2 without a scene")
@@ -388,6 +439,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.cmd is None:  # bare `gearpair`: the help, and argparse's status for a usage error
         ap.print_help()
         return 2
+    # a first run on a machine compiles the fast engine: say so on stderr (gearpair.jitcache)
+    os.environ.setdefault("GEARPAIR_COMPILE_NOTICE", "1")
     with warnings.catch_warnings():
         warnings.showwarning = _warning_line
         try:
@@ -395,6 +448,10 @@ def main(argv: list[str] | None = None) -> int:
                     "bench": _bench}[args.cmd](args)
         except ValueError as exc:
             print(f"gearpair: error: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:  # a path the user gave: missing, unreadable, unwritable
+            where = f": {exc.filename}" if exc.filename else ""
+            print(f"gearpair: error: {exc.strerror or exc}{where}", file=sys.stderr)
             return 2
 
 

@@ -15,32 +15,14 @@ This module must be imported before numba (it sets ``NUMBA_CACHE_DIR``); the eng
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import sys
-import tempfile
+import time
 
+from .shipped import FORMAT, MANIFEST, SHIPPED_FOLDER, user_cache_dir
 
-def _cache_dir() -> str | None:
-    """A writable directory for numba's cache (NUMBA_CACHE_DIR or a per-user one), or None."""
-    path = os.environ.get("NUMBA_CACHE_DIR")
-    if not path:
-        home = os.path.expanduser("~")
-        if sys.platform.startswith("win"):
-            base = os.environ.get("LOCALAPPDATA") or os.path.join(home, "AppData", "Local")
-        elif sys.platform == "darwin":
-            base = os.path.join(home, "Library", "Caches")
-        else:
-            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(home, ".cache")
-        path = os.path.join(base, "gearpair", "numba")
-    try:
-        os.makedirs(path, exist_ok=True)
-        tempfile.TemporaryFile(dir=path).close()
-    except Exception:  # noqa: BLE001 - any failure means: no disk cache
-        return None
-    return path
-
-
-CACHE_DIR = _cache_dir()
+CACHE_DIR = user_cache_dir()
 if CACHE_DIR is not None and "numba" not in sys.modules:
     os.environ.setdefault("NUMBA_CACHE_DIR", CACHE_DIR)
 
@@ -67,35 +49,119 @@ def _file_digest(path: str) -> str:
         return hashlib.sha1(fh.read()).hexdigest()
 
 
+def _engine_key() -> str:
+    """sha1 (20 hex digits) of the engine files' contents, numba's version and the engine's
+    module name: the name of this package's folder in the cache and of its shipped code."""
+    own = sorted((os.path.basename(p), _file_digest(p)) for p in engine_files())
+    return hashlib.sha1("\n".join(f"{n} {d}" for n, d in own).encode()
+                        + numba.__version__.encode() + ENGINE_MODULE.encode()).hexdigest()[:20]
+
+
+try:
+    KEY: str | None = _engine_key()
+except OSError:  # a source file cannot be read: no disk cache, no shipped code
+    KEY = None
+
+# -- compiled code shipped with the package (an FMU's copy; `gearpair.shipped`) ----------------
+SHIPPED_DIR = os.path.join(_HERE, SHIPPED_FOLDER)
+
+
+def python_tag() -> str:
+    """The interpreter as compiled code depends on it (implementation, version, ABI)."""
+    return (f"{sys.implementation.name}-{sys.version_info[0]}.{sys.version_info[1]}"
+            f"{getattr(sys, 'abiflags', '')}")
+
+
+def _versions() -> dict[str, str]:
+    """What compiled code depends on besides the engine's sources and the CPU."""
+    import llvmlite
+    import numpy
+
+    return {"python": python_tag(), "numba": numba.__version__,
+            "llvmlite": llvmlite.__version__, "numpy": numpy.__version__}
+
+
+def _host_features() -> set[str]:
+    from llvmlite import binding as ll
+
+    return {name for name, on in ll.get_host_cpu_features().items() if on}
+
+
+def _check_shipped(path: str = SHIPPED_DIR) -> tuple[tuple | None, str]:
+    """(numba's codegen "magic tuple" of the shipped code, "") if the code in ``path`` was
+    compiled for this engine, these versions and a CPU this host can run; else (None, why)."""
+    if os.environ.get("GEARPAIR_SHIPPED_CODE", "1").strip().lower() in ("0", "off", "no"):
+        return None, "GEARPAIR_SHIPPED_CODE=0"
+    try:
+        with open(os.path.join(path, MANIFEST), encoding="utf-8") as fh:
+            m = json.load(fh)
+    except FileNotFoundError:
+        return None, "no compiled code shipped"
+    except (OSError, ValueError) as e:
+        return None, f"unreadable manifest of the shipped code ({e})"
+    try:
+        if m.get("format") != FORMAT or m.get("key") != KEY or \
+                m.get("engine_module") != ENGINE_MODULE:
+            return None, "the shipped code is for other engine sources or another numba"
+        host = _versions()
+        diff = [f"{k} {m['versions'].get(k)} (here {v})" for k, v in host.items()
+                if m["versions"].get(k) != v]
+        if diff:
+            return None, "the shipped code is for " + ", ".join(diff)
+        from llvmlite import binding as ll
+
+        if m["triple"] != ll.get_process_triple():
+            return None, f"the shipped code is for {m['triple']} (here {ll.get_process_triple()})"
+        missing = sorted(set(m["requires"]) - _host_features())
+        if missing:
+            return None, (f"the shipped code is for CPU {m['cpu_name']}; this CPU lacks "
+                          + ", ".join(missing))
+        return tuple(m["magic"]), ""
+    except Exception as e:  # noqa: BLE001 - a malformed manifest: compile instead
+        return None, f"unusable manifest of the shipped code ({type(e).__name__}: {e})"
+
+
+SHIPPED_MAGIC, SHIPPED_WHY = _check_shipped() if KEY is not None else (None, "no engine key")
+# how the engine's functions were obtained in this process: from the shipped code, from the
+# user cache, or compiled (a count per compiled function and signature)
+STATS = {"shipped": 0, "cached": 0, "compiled": 0}
+_NOTICE = {"given": False}
+
+
+def _announce_compile() -> None:
+    """Tell a command-line user that the first run compiles (``GEARPAIR_COMPILE_NOTICE``
+    set, as `gearpair.cli` does); once per process."""
+    if _NOTICE["given"] or not os.environ.get("GEARPAIR_COMPILE_NOTICE"):
+        return
+    _NOTICE["given"] = True
+    where = f"; later runs load it from {CACHE_PATH}" if CACHE_PATH else ""
+    print(f"gearpair: compiling the fast engine once (about a minute){where}",
+          file=sys.stderr, flush=True)
+
+
 def _install_locator() -> bool:
     """Key the cache of the engine's functions by file content, not by directory.
 
     numba keys a cache directory by the absolute path of the source file, so a package
     extracted to a new temporary directory would recompile. This locator puts the functions
-    of the engine's files (`engine_files`) under ``<cache dir>/gearpair_fast_<key>``, the key
+    of the engine's files (`engine_files`) under ``<cache dir>/gearpair_fast_<KEY>``, the key
     a sha1 of the files' contents, numba's version and the engine's module name; numba itself
     still checks each file's content hash (its source stamp). The module name is part of the
     key because a cached function names its module, which numba imports on loading it: the
     FMU's bundled copy (``_gearpair_fmu.fast``) must not load entries of ``gearpair.fast``
     and so import a host's package. Returns whether caching can be used.
     """
-    if CACHE_DIR is None:
+    if CACHE_DIR is None or KEY is None:
         return False
     try:
         from numba.core import caching
 
         files = engine_files()
         own = {os.path.basename(p): _file_digest(p) for p in files}
-        digest = hashlib.sha1("\n".join(f"{n} {d}" for n, d in sorted(own.items())).encode()
-                              + numba.__version__.encode()
-                              + ENGINE_MODULE.encode()).hexdigest()[:20]
-        where = os.path.join(CACHE_DIR, "gearpair_fast_" + digest)
+        digest = KEY
+        where = CACHE_PATH
         # path -> holds one of the engine's files (by content)
         same: dict[str, bool] = {os.path.abspath(p): True for p in files}
-
-        def is_engine_module(name) -> bool:
-            return isinstance(name, str) and (name == ENGINE_MODULE or
-                                              name.startswith(ENGINE_MODULE + "."))
 
         class _ContentLocator(caching.UserProvidedCacheLocator):
             _gearpair_digest = digest
@@ -108,7 +174,7 @@ def _install_locator() -> bool:
             def from_function(cls, py_func, py_file):
                 # A host that deletes an extracted FMU and loads the next copy from a new
                 # folder imports the engine again under another path: match by content.
-                if not is_engine_module(getattr(py_func, "__module__", None)):
+                if not _is_engine_module(getattr(py_func, "__module__", None)):
                     return None  # another module, or the engine under another import name
                 path = os.path.abspath(py_file)
                 if path not in same:
@@ -129,9 +195,146 @@ def _install_locator() -> bool:
         return bool(numba.config.CACHE_DIR)
 
 
+def _is_engine_module(name) -> bool:
+    return isinstance(name, str) and (name == ENGINE_MODULE or
+                                      name.startswith(ENGINE_MODULE + "."))
+
+
+CACHE_PATH = os.path.join(CACHE_DIR, "gearpair_fast_" + KEY) if CACHE_DIR and KEY else None
 CACHE = _install_locator()
-jit = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False)
-# Hot helpers are inlined at numba IR level: a call between compiled functions passes every
-# array by value with reference counting, which costs more than the arithmetic here.
-jit_inline = numba.njit(cache=CACHE, fastmath=False, error_model="numpy", inline="always",
-                        _nrt=False)
+
+
+def _engine_cache_class():
+    """numba's per-function disk cache, consulting the shipped code first (read only).
+
+    The shipped index files are numba's own, written at build time for a portable CPU; their
+    keys hold that CPU's codegen tuple where a lookup on this host would use the host's, so
+    the lookup here asks for the shipped tuple once `_check_shipped` found that this CPU runs
+    the code. Anything not found there (or unreadable) comes from the user cache or is
+    compiled and saved into the user cache, as without shipped code.
+    """
+    from numba.core import caching
+
+    class _EngineCache(caching.FunctionCache):
+        def __init__(self, py_func):
+            super().__init__(py_func)
+            self._shipped = None
+            if SHIPPED_MAGIC is not None:
+                self._shipped = caching.IndexDataCacheFile(
+                    cache_path=SHIPPED_DIR, filename_base=self._impl.filename_base,
+                    source_stamp=self._impl.locator.get_source_stamp())
+
+        def load_overload(self, sig, target_context):
+            if self._shipped is not None:
+                try:
+                    target_context.refresh()
+                    key = self._index_key(sig, target_context.codegen())
+                    data = self._shipped.load((key[0], SHIPPED_MAGIC) + tuple(key[2:]))
+                    if data is not None:
+                        cres = self._impl.rebuild(target_context, data)
+                        STATS["shipped"] += 1
+                        return cres
+                except Exception:  # noqa: BLE001 - damaged shipped files: the user cache
+                    pass
+            cres = super().load_overload(sig, target_context)
+            if cres is None:
+                STATS["compiled"] += 1
+                _announce_compile()
+            else:
+                STATS["cached"] += 1
+            return cres
+
+    return _EngineCache
+
+
+_ENGINE_CACHE = _engine_cache_class() if CACHE else None
+_OPTIONS = dict(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False)
+
+
+def _with_engine_cache(dispatcher):
+    """Give a dispatcher that caches on disk the `_engine_cache_class` cache instead."""
+    from numba.core.caching import FunctionCache
+
+    if _ENGINE_CACHE is not None and type(getattr(dispatcher, "_cache", None)) is FunctionCache:
+        try:
+            dispatcher._cache = _ENGINE_CACHE(dispatcher.py_func)
+        except Exception:  # noqa: BLE001 - keep numba's own cache
+            pass
+    return dispatcher
+
+
+def jit(func):
+    """``numba.njit`` with the engine's options and cache."""
+    return _with_engine_cache(numba.njit(**_OPTIONS)(func))
+
+
+def jit_inline(func):
+    """`jit` inlined into its callers at numba IR level: a call between compiled functions
+    passes every array by value with reference counting, which costs more than the
+    arithmetic of the hot helpers."""
+    return _with_engine_cache(numba.njit(inline="always", **_OPTIONS)(func))
+
+
+_LOADED: dict = {}
+
+
+def load_engine() -> dict:
+    """Load (or compile) every compiled entry point of the engine now, once per process.
+
+    Runs a default `FastEngine` through ``reset``, ``advance_values``, ``output_values``,
+    ``energy`` and ``run_grid`` for a few microseconds of model time, so that the first real
+    call does not compile. Returns a report (the same dict on later calls, with
+    ``first`` False): ``source`` "shipped" (the code shipped with this package copy), "cache"
+    (the user cache), "compiled" (at least one function compiled now and saved in the user
+    cache) or "memory" (compiled, no disk cache usable); ``seconds`` it took; ``counts`` per
+    source; ``cache_dir`` (the user cache folder of this engine, or None); ``shipped_why``
+    (why shipped code was not used, "" if it was usable).
+    """
+    if _LOADED:
+        return dict(_LOADED, first=False)
+    import importlib
+
+    before = dict(STATS)
+    t0 = time.perf_counter()
+    fast = importlib.import_module(ENGINE_MODULE)
+    eng = fast.FastEngine()
+    eng.reset(torque=1000.0, speed=10.0)
+    eng.advance_values(2e-6, 1000.0, 10.0)
+    eng.output_values()
+    eng.energy()
+    eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0)
+    # the exact propagator is compiled only for the engines that use it (`fast.loop.piece`)
+    effects = importlib.import_module(_PACKAGE + ".effects")
+    lti = fast.FastEngine(effects=effects.Effects(friction="off", stiffness="constant"))
+    lti.reset(torque=1000.0, speed=10.0)
+    lti.advance_values(2e-6, 1000.0, 10.0)
+    lti.run_grid([lti.time, lti.time + 2e-6], 1000.0, 10.0)
+    seconds = time.perf_counter() - t0
+    counts = {k: STATS[k] - before[k] for k in STATS}
+    if not CACHE:
+        source = "memory"
+    elif counts["compiled"]:
+        source = "compiled"
+    elif counts["shipped"] and not counts["cached"]:
+        source = "shipped"
+    else:
+        source = "cache"
+    _LOADED.update(source=source, seconds=seconds, counts=counts, cache_dir=CACHE_PATH,
+                   shipped_why=SHIPPED_WHY, first=True)
+    return dict(_LOADED)
+
+
+def describe(report: dict, package: str = "this package") -> str:
+    """One sentence on how `load_engine` got the engine's code, for a log (``package``: what
+    the shipped code came with)."""
+    took = f"{report['seconds']:.1f} s"
+    if report["source"] == "shipped":
+        return f"fast engine: loaded the compiled code shipped in {package} in {took}"
+    if report["source"] == "cache":
+        return f"fast engine: loaded the compiled code from {report['cache_dir']} in {took}"
+    why = f" ({report['shipped_why']})" if report["shipped_why"] else ""
+    if report["source"] == "memory":
+        return (f"fast engine: compiled in {took}{why}; no writable cache folder, so every "
+                "new process compiles again")
+    return (f"fast engine: compiled once for this machine in {took}{why}; later runs load "
+            f"it from {report['cache_dir']}")

@@ -200,6 +200,16 @@ class ReferenceEngine(Engine):
     def advance(self, t_end: float, torque: float, speed: float,
                 load_speed: float | None = None) -> StepSummary:
         check_inputs(torque, speed, load_speed)
+        fx = self.model.effects
+        if speed == 0.0 and fx.friction == "stick_slip" and fx.sliding == "paper":
+            # Both pairs slide at v = 0 and, with Eq. (12), every pair's sliding velocity
+            # moves only with x1' - x2': their stick constraints coincide and the static
+            # friction of two stuck pairs is undetermined (a singular system here; the fast
+            # engine lets the second pair slip at v = 0 instead).
+            raise ValueError(
+                "speed = 0 (standstill) with friction = 'stick_slip' and sliding = 'paper': "
+                "the reference engine cannot run it (the stick constraints of the pairs in "
+                "mesh coincide); use the fast engine (the default) or sliding = 'full'")
         t_start = self.t
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")

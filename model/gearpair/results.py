@@ -29,12 +29,13 @@ UNITS = {
     "gear1_speed": "rad/s",
     "gear2_speed": "rad/s", "sliding_velocity": "m/s", "stick_fraction": "1",
     "separation_fraction": "1", "mesh_force_max": "N", "n_events": "1", "torque": "N.m",
-    "speed": "rad/s", "load_speed": "rad/s",
+    "speed": "rad/s", "load_speed": "rad/s", "back_fraction": "1", "mesh_force_mean": "N",
+    "mesh_force_min": "N",
 }
 _CONVERT = {("m", "um"): 1e6, ("N", "kN"): 1e-3, ("rad/s", "rpm"): 1 / RPM, ("m", "mm"): 1e3}
 # Figures that describe the interval ending at their row (not an instant): merged, not sampled,
 # when rows are dropped.
-_FRACTIONS = ("stick_fraction", "separation_fraction")
+_FRACTIONS = ("stick_fraction", "separation_fraction", "back_fraction", "mesh_force_mean")
 
 
 @dataclass
@@ -42,10 +43,12 @@ class Trajectory:
     """Recorded outputs (SI), one row per output instant, time first.
 
     ``data`` maps a column name (see `UNITS`) to an array. The step figures
-    (``stick_fraction``, ``separation_fraction``, ``mesh_force_max``, ``n_events``) at row i
-    describe the interval ending at ``time[i]``; row 0 is the initial state. ``torque`` and
-    ``speed`` at row i are the inputs held over that interval. ``meta`` holds how the run was
-    made (``engine``, ``wall_time_s``), not results.
+    (``stick_fraction``, ``separation_fraction``, ``back_fraction``, ``mesh_force_mean``,
+    ``mesh_force_min``, ``mesh_force_max``, ``n_events``; `StepSummary`) at row i describe the
+    interval ending at ``time[i]``; row 0 is the initial state. ``torque`` and ``speed`` at
+    row i are the inputs held over that interval. ``meta`` holds how the run was made
+    (``engine``, ``wall_time_s`` of the run itself, ``startup_s`` of building the engine and
+    loading its compiled code), not results.
     """
 
     data: dict[str, np.ndarray]
@@ -73,30 +76,54 @@ class Trajectory:
         """Mask of the intervals ending after ``t_from`` (a steady window)."""
         return self.time > t_from + 1e-12
 
-    def ratios(self, t_from: float = 0.0) -> dict[str, float]:
-        """Stick ratio r_k = t_k/t_t and contact-loss ratio r_l = t_l/t_t over the window
-        after ``t_from`` (Eqs. (26)-(27)), from the located switching instants."""
+    def _time_mean(self, name: str, t_from: float) -> float:
+        """Time mean of a per-interval figure over the window after ``t_from``."""
         w = self.window(t_from)
         dt = np.diff(self.time, prepend=self.time[0])[w]
         tt = dt.sum()
         if tt <= 0:
             raise ValueError("the steady window is empty: t_from is past the end")
-        return {
-            "stick_ratio": float((self.data["stick_fraction"][w] * dt).sum() / tt),
-            "contact_loss_ratio": float((self.data["separation_fraction"][w] * dt).sum() / tt),
-        }
+        return float((self.data[name][w] * dt).sum() / tt)
+
+    def ratios(self, t_from: float = 0.0) -> dict[str, float]:
+        """Stick ratio r_k = t_k/t_t and contact-loss ratio r_l = t_l/t_t over the window
+        after ``t_from`` (Eqs. (26)-(27)), from the located switching instants, and the
+        back-flank contact ratio (time on the back flank with `Effects.backlash`: contact
+        under a negative torque, not contact loss)."""
+        out = {"stick_ratio": self._time_mean("stick_fraction", t_from),
+               "contact_loss_ratio": self._time_mean("separation_fraction", t_from)}
+        if "back_fraction" in self.data:  # an FMU's record has no such output
+            out["back_contact_ratio"] = self._time_mean("back_fraction", t_from)
+        return out
 
     def summary(self, t_from: float = 0.0) -> dict:
-        """Ratios and mesh force min/mean/max (N) over the steady window."""
+        """Ratios, the mesh force over the steady window and the DTE at the output instants.
+
+        ``mesh_force_n``: ``mean`` is the time mean from the engine's integral over every
+        integrator step (not a mean of samples, which at a fixed output interval locks to
+        phases of the mesh period), ``min`` and ``max`` the least and peak values of the
+        engine's dense samples inside every interval. A record without the integral (the
+        FMU's) gives ``mean_sampled`` instead. ``dte_m_sampled``: statistics of the DTE at
+        the output instants only.
+        """
         w = self.window(t_from)
         f = self.data["mesh_force"][w]
         fmax = self.data["mesh_force_max"][w]
         out = self.ratios(t_from)
-        out["mesh_force_n"] = {"min": float(f.min()), "mean": float(f.mean()),
-                               "max": float(max(f.max(), fmax.max()))}
+        fmin = float(f.min())
+        if "mesh_force_min" in self.data:
+            fmin = min(fmin, float(self.data["mesh_force_min"][w].min()))
+        force = {"min": fmin}
+        if "mesh_force_mean" in self.data:
+            force["mean"] = self._time_mean("mesh_force_mean", t_from)
+        else:
+            force["mean_sampled"] = float(f.mean())
+        force["max"] = float(max(f.max(), fmax.max()))
+        out["mesh_force_n"] = force
         d = self.data["dte"][w]
-        out["dte_m"] = {"min": float(d.min()), "mean": float(d.mean()), "max": float(d.max()),
-                        "std": float(d.std()), "peak_to_peak": float(d.max() - d.min())}
+        out["dte_m_sampled"] = {"min": float(d.min()), "mean": float(d.mean()),
+                                "max": float(d.max()), "std": float(d.std()),
+                                "peak_to_peak": float(d.max() - d.min())}
         out["window_s"] = [float(t_from), float(self.time[-1])]
         return out
 
@@ -104,8 +131,9 @@ class Trajectory:
         """Keep row 0, every ``every``-th row and the last row.
 
         Instantaneous columns are sampled; the step figures are merged over the dropped
-        intervals (fractions weighted by interval length, ``mesh_force_max`` the peak,
-        ``n_events`` the sum), so `ratios` and the peak force do not depend on ``every``.
+        intervals (fractions and the mean force weighted by interval length,
+        ``mesh_force_max`` the peak, ``mesh_force_min`` the least, ``n_events`` the sum), so
+        `ratios` and the force figures do not depend on ``every``.
         """
         every = int(every)
         n = len(self.time) - 1
@@ -125,6 +153,9 @@ class Trajectory:
                 data[k][1:] = np.add.reduceat(self.data[k][1:] * dt, starts) / span
         if "mesh_force_max" in self.data:
             data["mesh_force_max"][1:] = np.maximum.reduceat(self.data["mesh_force_max"][1:],
+                                                             starts)
+        if "mesh_force_min" in self.data:
+            data["mesh_force_min"][1:] = np.minimum.reduceat(self.data["mesh_force_min"][1:],
                                                              starts)
         if "n_events" in self.data:
             data["n_events"][1:] = np.add.reduceat(self.data["n_events"][1:], starts)
@@ -214,7 +245,7 @@ def _ratio(eng: Engine, params: GearParams | None) -> float:
 
 def simulate(params: GearParams | None = None, effects: Effects | None = None,
              t_end: float = 0.2, torque: Input | None = None, speed: Input | None = None,
-             dt: float = 1e-4, engine: str | Engine = "reference", t0: float = 0.0,
+             dt: float = 1e-4, engine: str | Engine = "fast", t0: float = 0.0,
              static: bool = True, **engine_options) -> Trajectory:
     """Run one gear pair from ``t0`` to ``t_end`` and record every ``dt`` (s).
 
@@ -223,8 +254,12 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
     torque, speed : N.m and rad/s, constants or functions of time; sampled at the start of
         each output interval and held over it (as an FMI master does). Defaults: the
         `OperatingPoint` (3900 N.m, 100 r/min).
-    engine : engine name for `gearpair.make_engine`, or an engine instance
+    engine : engine name for `gearpair.make_engine` (``"fast"``, the default, or
+        ``"reference"``, the scipy yardstick), or an engine instance
     static : start from static equilibrium under the initial torque
+
+    The trajectory's ``meta`` has ``startup_s`` (building the engine and loading its
+    compiled code, once per process) apart from ``wall_time_s`` (the run itself).
     """
     from . import make_engine
 
@@ -241,23 +276,31 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
     n = int(round((t_end - t0) / dt))
     grid = t0 + dt * np.arange(n + 1)
     grid[-1] = t_end
+    if hasattr(eng, "run_grid") and not isinstance(engine, Engine):
+        # Load the compiled recorder (from the on-disk cache; the first call in a process
+        # takes 0.1-1 s) on a throwaway engine, so that it counts as start-up, not run time.
+        warm = make_engine(params, effects, engine, **engine_options)
+        warm.reset(t0, fT(t0), fW(t0), static=static)
+        warm.run_grid(np.array([t0, t0 + 1e-3 * dt]), [fT(t0)], [fW(t0)])
+    startup = _time.perf_counter() - wall0
+    wall0 = _time.perf_counter()
     eng.reset(grid[0], fT(grid[0]), fW(grid[0]), static=static)
     names = [f.name for f in fields(Outputs)]
     cols = {k: np.zeros(n + 1) for k in names}
-    extra = {k: np.zeros(n + 1) for k in ("stick_fraction", "separation_fraction",
-                                          "mesh_force_max", "n_events", "torque", "speed")}
+    figures = ("stick_fraction", "separation_fraction", "back_fraction", "mesh_force_mean",
+               "mesh_force_min", "mesh_force_max", "n_events")
+    extra = {k: np.zeros(n + 1) for k in (*figures, "torque", "speed")}
 
     def record(i, out: Outputs, summ=None, T=0.0, W=0.0):
         for k in names:
             cols[k][i] = getattr(out, k)
         extra["torque"][i], extra["speed"][i] = T, W
         if summ is not None:
-            extra["stick_fraction"][i] = summ.stick_fraction
-            extra["separation_fraction"][i] = summ.separation_fraction
-            extra["mesh_force_max"][i] = summ.mesh_force_max
-            extra["n_events"][i] = summ.n_events
+            for k in figures:
+                extra[k][i] = getattr(summ, k)
         else:
-            extra["mesh_force_max"][i] = out.mesh_force
+            for k in ("mesh_force_mean", "mesh_force_min", "mesh_force_max"):
+                extra[k][i] = out.mesh_force
 
     if hasattr(eng, "run_grid"):  # compiled engines record the whole grid in one call
         T, W = (f.sample(grid[:-1]) if hasattr(f, "sample") else
@@ -268,7 +311,8 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
         data["speed"] = np.r_[fW(grid[0]), W]
         data["load_speed"] = data["speed"] * _ratio(eng, params)
         name = engine if isinstance(engine, str) else type(engine).__name__
-        return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0})
+        return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0,
+                                 "startup_s": startup})
     record(0, eng.outputs(), None, fT(grid[0]), fW(grid[0]))
     for i in range(1, n + 1):
         T, W = fT(grid[i - 1]), fW(grid[i - 1])
@@ -277,4 +321,5 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
     data = {"time": grid, **{k: v for k, v in cols.items() if k != "time"}, **extra}
     data["load_speed"] = data["speed"] * _ratio(eng, params)
     name = engine if isinstance(engine, str) else type(engine).__name__
-    return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0})
+    return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0,
+                             "startup_s": startup})

@@ -47,6 +47,11 @@ _SIGNALS = {"torque": ("torque", "N.m", 1.0), "speed": ("speed", "rad/s", 1.0),
 _OP = {f.name: f.metadata for f in fields(OperatingPoint)}  # input ranges (SI)
 
 
+class SceneWarning(UserWarning):
+    """Something in a scene that is allowed but most likely not meant (e.g. an input-CSV
+    column that no input uses: a misspelt name leaves that input at its default)."""
+
+
 class SceneError(ValueError):
     """A scene file is invalid; the message names the file and the key."""
 
@@ -677,6 +682,19 @@ def _csv_series(d: Any, base: Path) -> dict[str, Series]:
         cols.setdefault("time", "time")
     else:  # columns named like the scene keys
         cols = {k: k for k in ("time", *_SIGNALS) if k in header}
+        for h in header:
+            # a misspelt input would silently keep its default; gearpair's own output
+            # columns (a CSV written by --out) are known and not inputs
+            if h not in cols and h not in OUTPUT_NAMES:
+                import difflib
+                import warnings
+
+                near = difflib.get_close_matches(h, ["time", *_SIGNALS], n=1, cutoff=0.0)
+                warnings.warn(SceneWarning(
+                    f"[{where}] file {path}: column {h!r} is not an input and is ignored "
+                    f"(closest input name: {near[0]!r}; inputs: time, "
+                    f"{', '.join(_SIGNALS)}; map the file explicitly with columns = {{...}} "
+                    "to silence this)"), stacklevel=2)
     if "time" not in cols or cols["time"] not in header:
         raise SceneError(f"[{where}] file {path}: no time column {cols.get('time', 'time')!r}; "
                          f"columns: {', '.join(header)}")

@@ -9,10 +9,14 @@ torque or any `GearParams` field) with everything else held. Each point returns
   ``T_m = 2 pi / (z1 Omega1)`` over the kept periods, at a fixed phase of the period
   (``section_phase``; Fig. 16), with the period of the response in mesh periods (1, 2, ...;
   0 none found up to ``max_period``) and the number of distinct values;
-- DTE and mesh force statistics (``mesh_force_min_kn`` is the smallest at the samples,
-  ``steps_per_period`` per period, so it misses short dips; the maximum is the engine's peak),
-  adjacent-period differences, the half-order amplitude of the DTE (Fig. 14), and the cost of
-  the point (wall and CPU time, worker).
+- the mesh force over the whole trajectory of the kept periods: its time mean from the
+  engine's integral over every integrator step (`StepSummary.mesh_force_mean`), its least and
+  peak values from the engine's dense samples inside every step; the back-flank contact ratio
+  (with backlash: contact under a negative torque, not contact loss);
+- DTE statistics at the ``steps_per_period`` samples per period, named ``_sampled`` (a mean
+  over samples at fixed phases of the mesh period is not the time mean), adjacent-period
+  differences, the half-order amplitude of the DTE (Fig. 14), and the cost of the point (wall
+  and CPU time, worker).
 
 Durations are counted in mesh periods: ``transient_periods`` are discarded (at least
 ``transient_time`` seconds: the slowest mode, 32 Hz at damping ratio 0.02, decays with a time
@@ -25,7 +29,9 @@ Points run in parallel on dask.distributed: a `LocalCluster` of worker processes
 scheduler address. A point that raises is caught inside the task and returned as an error
 record; it is retried (``retries`` times, each with a ten times tighter ``rtol``) and, if it
 still fails, kept in the output with ``status = failed`` and the error. A worker that dies is
-treated the same way. Nothing is dropped.
+treated the same way. A point whose value the parameter validation refuses, or that lies
+outside the model's validity (a negative torque without backlash: the teeth part for good),
+is not run and not retried: ``status = invalid`` with the reason. Nothing is dropped.
 
 ``gearpair sweep PARAM VALUES`` is the command line (`add_parser`, `main`).
 """
@@ -59,8 +65,8 @@ COLUMNS = (
     "index", "param", "value", "status", "error", "attempts", "rtol",
     "speed_rpm", "torque_nm", "mu", "friction", "stick_tie", "sliding",
     "mesh_period_s", "transient_periods", "kept_periods", "section_phase", "t_end_s",
-    "stick_ratio", "contact_loss_ratio", "stick_period_fraction", "loss_period_fraction",
-    "dte_mean_um", "dte_min_um", "dte_max_um",
+    "stick_ratio", "contact_loss_ratio", "back_contact_ratio", "stick_period_fraction",
+    "loss_period_fraction", "dte_mean_um_sampled", "dte_min_um_sampled", "dte_max_um_sampled",
     "mesh_force_min_kn", "mesh_force_mean_kn", "mesh_force_max_kn",
     "poincare_period", "poincare_distinct", "adjacent_diff", "alternate_diff",
     "half_order_um", "mesh_order_um", "events_per_period", "wall_s", "cpu_s", "worker",
@@ -205,7 +211,8 @@ def record_periods(params: GearParams, effects: Effects, torque: float, speed: f
     Returns
     -------
     dict with ``time`` (s), the engine ``outputs`` named (SI) at the end of each kept step,
-    the per-step ``stick_fraction``, ``separation_fraction``, ``mesh_force_max`` (N) and
+    the per-step `StepSummary` figures ``stick_fraction``, ``separation_fraction``,
+    ``back_fraction``, ``mesh_force_mean``, ``mesh_force_min``, ``mesh_force_max`` (N) and
     ``n_events``, and ``mesh_period`` (s), ``offset``, ``steps_per_period``.
     """
     from . import make_engine
@@ -217,8 +224,9 @@ def record_periods(params: GearParams, effects: Effects, torque: float, speed: f
     eng.reset(0.0, torque, speed, static=True)
     m = n_kept * n
     first = n_transient * n  # index of the first kept step
-    rec = {k: np.empty(m) for k in (*outputs, "time", "stick_fraction", "separation_fraction",
-                                     "mesh_force_max", "n_events")}
+    figures = ("stick_fraction", "separation_fraction", "back_fraction", "mesh_force_mean",
+               "mesh_force_min", "mesh_force_max", "n_events")
+    rec = {k: np.empty(m) for k in (*outputs, "time", *figures)}
     h = tm / n
     nt = n if transient_steps is None else int(transient_steps)
     if nt < 1 or n % nt:
@@ -238,10 +246,8 @@ def record_periods(params: GearParams, effects: Effects, torque: float, speed: f
             rec["time"][k] = out.time
             for name in outputs:
                 rec[name][k] = getattr(out, name)
-            rec["stick_fraction"][k] = summ.stick_fraction
-            rec["separation_fraction"][k] = summ.separation_fraction
-            rec["mesh_force_max"][k] = summ.mesh_force_max
-            rec["n_events"][k] = summ.n_events
+            for f in figures:
+                rec[f][k] = getattr(summ, f)
     rec.update(mesh_period=tm, offset=off, steps_per_period=n)
     return rec
 
@@ -265,8 +271,19 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
     rec["rtol"] = rtol
     try:
         params, effects, torque, speed = settings.inputs(name, value)
+        tm = analysis.mesh_period(params.z1, speed)  # refuses a standstill point
+        reason = outside_validity(effects, torque)
+    except ValueError as exc:  # the value is refused: a tighter rtol cannot change that
+        params, reason = None, f"ValueError: {exc}"
+    if reason is not None:
+        rec.update(status="invalid", error=reason)
+        if params is not None:
+            rec.update(speed_rpm=speed / RPM, torque_nm=torque, mu=params.mu)
+        rec["wall_s"] = time.perf_counter() - t_wall
+        rec["cpu_s"] = time.process_time() - t_cpu
+        return rec
+    try:
         rec.update(speed_rpm=speed / RPM, torque_nm=torque, mu=params.mu)
-        tm = analysis.mesh_period(params.z1, speed)
         n_t, n_k = settings.periods(tm)
         n = settings.steps_per_period
         r = record_periods(params, effects, torque, speed, n_t, n_k, n, rtol)
@@ -287,12 +304,15 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
             section_phase=float(ph[j0]),
             t_end_s=float(r["time"][-1]),
             stick_ratio=float(stick.mean()), contact_loss_ratio=float(sep.mean()),
+            back_contact_ratio=float(r["back_fraction"].mean()),
             stick_period_fraction=float(np.mean(st_per > 0)),
             loss_period_fraction=float(np.mean(se_per > 0)),
-            dte_mean_um=float(dte.mean() * 1e6), dte_min_um=float(dte.min() * 1e6),
-            dte_max_um=float(dte.max() * 1e6),
-            mesh_force_min_kn=float(force.min() * 1e-3),
-            mesh_force_mean_kn=float(force.mean() * 1e-3),
+            dte_mean_um_sampled=float(dte.mean() * 1e6),
+            dte_min_um_sampled=float(dte.min() * 1e6),
+            dte_max_um_sampled=float(dte.max() * 1e6),
+            # every kept step has the same length: the time mean is the mean of the steps'
+            mesh_force_min_kn=float(min(r["mesh_force_min"].min(), force.min()) * 1e-3),
+            mesh_force_mean_kn=float(r["mesh_force_mean"].mean() * 1e-3),
             mesh_force_max_kn=float(max(r["mesh_force_max"].max(), force.max()) * 1e-3),
             poincare_period=analysis.periodicity(sec, tol, settings.max_period),
             poincare_distinct=int(analysis.distinct_values(sec, tol).size),
@@ -308,6 +328,20 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
     rec["wall_s"] = time.perf_counter() - t_wall
     rec["cpu_s"] = time.process_time() - t_cpu
     return rec
+
+
+def outside_validity(effects: Effects, torque: float) -> str | None:
+    """Why a run lies outside the model's validity, or None.
+
+    Without backlash (the paper's model) a negative torque parts the teeth for good: nothing
+    holds gear 1, which spins up freely, and the DTE grows without bound (a point's DTE
+    statistics would be metres). `Effects.backlash` gives the back flanks that take it.
+    """
+    if torque < 0.0 and effects.backlash is None:
+        return (f"torque = {torque:g} N.m < 0 without backlash: the teeth part for good and "
+                "gear 1 spins up freely, outside the model (set a backlash for the back "
+                "flanks to take a negative torque)")
+    return None
 
 
 # -- the sweep --------------------------------------------------------------------------------
@@ -337,7 +371,13 @@ class SweepResult:
 
     @property
     def failed(self) -> list[dict[str, Any]]:
-        return [r for r in self.records if r["status"] != "ok"]
+        """Points that did not run to the end (``status = failed``)."""
+        return [r for r in self.records if r["status"] == "failed"]
+
+    @property
+    def invalid(self) -> list[dict[str, Any]]:
+        """Points refused by the validation or outside the model (``status = invalid``)."""
+        return [r for r in self.records if r["status"] == "invalid"]
 
     @property
     def throughput(self) -> float:
@@ -353,9 +393,12 @@ class SweepResult:
         cpu = float(np.nansum([r.get("cpu_s", math.nan) for r in self.records]))
         return {
             "param": self.name, "unit": sweepable().get(self.name, ""),
-            "points": len(self.records), "ok": len(self.records) - len(self.failed),
+            "points": len(self.records),
+            "ok": sum(r["status"] == "ok" for r in self.records),
             "failed": [{"index": r["index"], "value": r["value"], "error": r["error"]}
                        for r in self.failed],
+            "invalid": [{"index": r["index"], "value": r["value"], "error": r["error"]}
+                        for r in self.invalid],
             "retried": self.retried, "scheduler": self.scheduler, "workers": self.workers,
             "startup_s": round(self.startup_s, 3), "elapsed_s": round(self.elapsed_s, 3),
             "total_s": round(self.startup_s + self.elapsed_s, 3),
@@ -371,12 +414,15 @@ class SweepResult:
         """One line with the counts and the throughput."""
         s = self.summary()
         line = (f"sweep {self.name}: {s['points']} points ({s['ok']} ok, {len(s['failed'])} "
-                f"failed, {s['retried']} retried) in {s['elapsed_s']:.1f} s on {self.workers} "
+                f"failed, {len(s['invalid'])} invalid, {s['retried']} retried) in "
+                f"{s['elapsed_s']:.1f} s on {self.workers} "
                 f"worker(s) [{self.scheduler}]: {s['throughput_points_per_s']:.3f} points/s; "
                 f"startup {s['startup_s']:.1f} s; efficiency {s['efficiency']}; the points got "
                 f"{s['cpu_share']} of a core while running")
         for f in s["failed"]:
             line += f"\n  FAILED point {f['index']} ({self.name} = {f['value']}): {f['error']}"
+        for f in s["invalid"]:
+            line += f"\n  INVALID point {f['index']} ({self.name} = {f['value']}): {f['error']}"
         return line
 
     def to_csv(self, path: str | Path) -> Path:
@@ -547,13 +593,13 @@ def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
         for i, v in enumerate(values):
             rec = run_point(i, name, v, settings)
             for a in range(2, retries + 2):
-                if rec["status"] == "ok":
+                if rec["status"] != "failed":  # ok, or invalid: a tighter rtol cannot help
                     break
                 bar.update(False, retrying=True)
                 retried += 1
                 rec = run_point(i, name, v, settings, _tighter(settings.rtol, a), a)
             records.append(rec)
-            bar.update(rec["status"] == "ok")
+            bar.update(rec["status"] != "failed")
         return SweepResult(name, values, settings, records, time.perf_counter() - t1, startup,
                            1, "serial", retried)
     return _run_dask(name, values, settings, scheduler, workers, retries, bar, t0)
@@ -630,7 +676,7 @@ def _run_dask(name, values, settings, scheduler, workers, retries, bar, t0) -> S
                 rec["attempts"] = attempt
                 rec["error"] = f"{type(exc).__name__}: {exc}"
             fut.release()
-            if rec["status"] != "ok" and attempt <= retries:
+            if rec["status"] == "failed" and attempt <= retries:
                 retried += 1
                 bar.update(False, retrying=True)
                 g = client.submit(run_point, i, name, v, settings,
@@ -639,7 +685,7 @@ def _run_dask(name, values, settings, scheduler, workers, retries, bar, t0) -> S
                 ac.add(g)
                 continue
             records[i] = rec
-            bar.update(rec["status"] == "ok")
+            bar.update(rec["status"] != "failed")
         elapsed = time.perf_counter() - t1
     finally:
         client.close()
@@ -678,7 +724,8 @@ def sweep_title(name: str, s: SweepSettings) -> str:
 
 def plot_sweep(result: SweepResult, path: str | Path, title: str | None = None) -> Path:
     """Ratios against the swept value (Figs. 15, 17, 18) over the Poincare section of the DTE
-    (Fig. 16); failed points are red crosses on the axis."""
+    (Fig. 16); failed points are red crosses on the axis, invalid ones (refused values,
+    outside the model) grey ones; neither takes part in the axis scaling."""
     from matplotlib.figure import Figure
 
     x = np.array(result.values)
@@ -688,13 +735,18 @@ def plot_sweep(result: SweepResult, path: str | Path, title: str | None = None) 
     ax1.plot(x[ok], result.column("stick_ratio")[ok], "o-", ms=3, label="stick ratio $r_k$")
     ax1.plot(x[ok], result.column("contact_loss_ratio")[ok], "s-", ms=3,
              label="contact-loss ratio $r_l$")
-    if (~ok).any():
-        ax1.plot(x[~ok], np.zeros((~ok).sum()), "rx", ms=8, label="failed point")
+    bad = np.array([r["status"] == "failed" for r in result.records])
+    inval = np.array([r["status"] == "invalid" for r in result.records])
+    if bad.any():
+        ax1.plot(x[bad], np.zeros(bad.sum()), "rx", ms=8, label="failed point")
+    if inval.any():
+        ax1.plot(x[inval], np.zeros(inval.sum()), "x", color="0.5", ms=8,
+                 label="invalid (outside the model)")
     ax1.set_ylabel("ratio (Eqs. 26-27)")
     ax1.legend(loc="best", fontsize=8)
     ax1.grid(alpha=0.3)
     for r, v in zip(result.records, x, strict=True):
-        if r["poincare"]:
+        if r["poincare"] and r["status"] == "ok":
             p = np.asarray(r["poincare"]) * 1e6
             ax2.plot(np.full(p.size, v), p, ",", color="k", alpha=0.6)
             ax2.plot([v], [p[0]], ".", ms=1.5, color="k")
@@ -811,15 +863,20 @@ def settings_from_args(args) -> SweepSettings:
 
 def main(args) -> int:
     """``gearpair sweep``: run, write the files, report the throughput; exit status 1 when a
-    point failed (it is in the CSV with its error)."""
+    point failed or was invalid (it is in the CSV with its error)."""
     settings = settings_from_args(args)
     # Check names and the held values here, so a typo fails before a cluster starts.
     settings.inputs("speed_rpm", settings.speed_rpm)
     values = parse_values(args.values)
+    try:  # the output folder before the run, not after it
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out {args.out}: cannot create its folder ({exc.strerror})") \
+            from None
     res = run_sweep(args.param, values, settings, scheduler=args.scheduler,
                     workers=args.workers, retries=args.retries, progress=not args.quiet)
     files = res.write(args.out, plot=not args.no_plot)
     print(res.report(), file=sys.stderr)
     print(json.dumps({"files": files, **{k: v for k, v in res.summary().items()
                                          if k != "settings"}}, indent=2, default=str))
-    return 1 if res.failed else 0
+    return 1 if res.failed or res.invalid else 0

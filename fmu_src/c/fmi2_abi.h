@@ -1,0 +1,72 @@
+/* The FMI 2.0 C interface as far as the GearPair shim needs it: platform types, status
+ * codes, callback structure and the function types the shim forwards to. Written from the
+ * FMI 2.0 standard (section 2.1) for the default platform types; an FMU built with it is
+ * binary compatible with any FMI 2.0 host. */
+#ifndef GEARPAIR_FMI2_ABI_H
+#define GEARPAIR_FMI2_ABI_H
+
+#include <stddef.h>
+
+typedef void *fmi2Component;
+typedef void *fmi2ComponentEnvironment;
+typedef void *fmi2FMUstate;
+typedef unsigned int fmi2ValueReference;
+typedef double fmi2Real;
+typedef int fmi2Integer;
+typedef int fmi2Boolean;
+typedef char fmi2Char;
+typedef const fmi2Char *fmi2String;
+typedef char fmi2Byte;
+
+#define fmi2True 1
+#define fmi2False 0
+
+typedef enum { fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal, fmi2Pending } fmi2Status;
+typedef enum { fmi2ModelExchange, fmi2CoSimulation } fmi2Type;
+typedef enum {
+    fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime, fmi2Terminated
+} fmi2StatusKind;
+
+typedef void (*fmi2CallbackLogger)(fmi2ComponentEnvironment, fmi2String instanceName,
+                                   fmi2Status, fmi2String category, fmi2String message, ...);
+typedef void *(*fmi2CallbackAllocateMemory)(size_t, size_t);
+typedef void (*fmi2CallbackFreeMemory)(void *);
+typedef void (*fmi2StepFinished)(fmi2ComponentEnvironment, fmi2Status);
+
+typedef struct {
+    fmi2CallbackLogger logger;
+    fmi2CallbackAllocateMemory allocateMemory;
+    fmi2CallbackFreeMemory freeMemory;
+    fmi2StepFinished stepFinished;
+    fmi2ComponentEnvironment componentEnvironment;
+} fmi2CallbackFunctions;
+
+typedef fmi2Component fmi2InstantiateTYPE(fmi2String, fmi2Type, fmi2String, fmi2String,
+                                          const fmi2CallbackFunctions *, fmi2Boolean,
+                                          fmi2Boolean);
+typedef void fmi2FreeInstanceTYPE(fmi2Component);
+typedef fmi2Status fmi2SetupExperimentTYPE(fmi2Component, fmi2Boolean, fmi2Real, fmi2Real,
+                                           fmi2Boolean, fmi2Real);
+typedef fmi2Status fmi2ComponentCallTYPE(fmi2Component); /* enter/exit init, terminate, reset */
+typedef fmi2Status fmi2GetRealTYPE(fmi2Component, const fmi2ValueReference[], size_t,
+                                   fmi2Real[]);
+typedef fmi2Status fmi2GetIntegerTYPE(fmi2Component, const fmi2ValueReference[], size_t,
+                                      fmi2Integer[]);
+typedef fmi2Status fmi2GetBooleanTYPE(fmi2Component, const fmi2ValueReference[], size_t,
+                                      fmi2Boolean[]);
+typedef fmi2Status fmi2SetRealTYPE(fmi2Component, const fmi2ValueReference[], size_t,
+                                   const fmi2Real[]);
+typedef fmi2Status fmi2SetIntegerTYPE(fmi2Component, const fmi2ValueReference[], size_t,
+                                      const fmi2Integer[]);
+typedef fmi2Status fmi2SetBooleanTYPE(fmi2Component, const fmi2ValueReference[], size_t,
+                                      const fmi2Boolean[]);
+typedef fmi2Status fmi2GetFMUstateTYPE(fmi2Component, fmi2FMUstate *);
+typedef fmi2Status fmi2SetFMUstateTYPE(fmi2Component, fmi2FMUstate);
+typedef fmi2Status fmi2FreeFMUstateTYPE(fmi2Component, fmi2FMUstate *);
+typedef fmi2Status fmi2SerializedFMUstateSizeTYPE(fmi2Component, fmi2FMUstate, size_t *);
+typedef fmi2Status fmi2SerializeFMUstateTYPE(fmi2Component, fmi2FMUstate, fmi2Byte[], size_t);
+typedef fmi2Status fmi2DeSerializeFMUstateTYPE(fmi2Component, const fmi2Byte[], size_t,
+                                               fmi2FMUstate *);
+typedef fmi2Status fmi2DoStepTYPE(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean);
+
+#endif

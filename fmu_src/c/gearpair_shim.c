@@ -1,0 +1,941 @@
+/* GearPair FMU binary: a thin FMI 2.0 co-simulation layer over pythonfmu's library.
+ *
+ * The FMU's `binaries/linux64/GearPair.so` is this file, compiled by build_fmu.py with the
+ * variable table it generates from the final modelDescription.xml (gearpair_vars.h).
+ * pythonfmu's own library ships beside it under another name (GP_INNER_LIB) and runs the
+ * Python slave; every fmi2 call is forwarded to it, with what pythonfmu 0.7 leaves out:
+ *
+ * - the FMI 2.0 co-simulation state machine per instance: a call not allowed in the
+ *   instance's current mode returns fmi2Error with a log message and changes nothing;
+ * - fmi2Set* checks against the variable table: unknown value references, outputs, fixed
+ *   parameters after initialization, non-finite or out-of-range values and integer codes
+ *   outside their choices are refused with fmi2Error, the old value kept (nothing is
+ *   forwarded);
+ * - the slave cannot return fmi2Error itself (pythonfmu turns a Python exception into
+ *   fmi2Fatal), so it logs a refusal with status error and returns normally; a call during
+ *   which the slave logged an error returns fmi2Error here;
+ * - log messages of status warning and worse always reach the host's logger; only messages
+ *   of status OK (information, debug) follow loggingOn and fmi2SetDebugLogging. pythonfmu is
+ *   instantiated with loggingOn true and this layer's logger;
+ * - serialized FMU states carry a trailer (format tag, mode, length, CRC-32), so a truncated
+ *   or altered state is refused with fmi2Error before the slave sees it; FMU state pointers
+ *   are checked against the instance's live states;
+ * - the embedded interpreter's lifetime (see `ensure_python`): exit and dlclose are safe.
+ */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <wchar.h>
+
+#include "fmi2_abi.h"
+
+#define EXPORT __attribute__((visibility("default")))
+
+/* One FMU variable, from modelDescription.xml (generated: gearpair_vars.h). */
+typedef struct {
+    unsigned vr;
+    char type;      /* 'R' Real, 'I' Integer, 'B' Boolean */
+    char causality; /* 'p' parameter, 'i' input, 'o' output */
+    char tunable;   /* settable after initialization (inputs, tunable parameters) */
+    char has_lo, has_hi, lo_open;
+    double lo, hi;
+    const char *name;
+    const char *unit; /* "" when none */
+    const char *codes; /* integer codes with their names, or NULL */
+} GpVar;
+
+#include "gearpair_vars.h" /* GP_GUID, GP_INNER_LIB, GP_VARS[], GP_NVARS */
+
+/* Modes of an instance (FMI 2.0, section 4.2.4; the slave is synchronous, so there is no
+ * stepInProgress, and a failed step leaves the state of its start: see fmi2DoStep). */
+typedef enum { M_INSTANTIATED, M_INIT, M_STEP, M_TERMINATED, M_FATAL } Mode;
+static const char *const MODE_NAME[] = {"instantiated", "initialization mode",
+                                        "step mode (initialized)", "terminated",
+                                        "fatal error"};
+#define IN(m, set) (((set) >> (m)) & 1u)
+#define B(m) (1u << (m))
+#define ANY_LIVE (B(M_INSTANTIATED) | B(M_INIT) | B(M_STEP) | B(M_TERMINATED))
+
+/* -- pythonfmu's library ---------------------------------------------------------------- */
+static struct {
+    fmi2InstantiateTYPE *instantiate;
+    fmi2FreeInstanceTYPE *free_instance;
+    fmi2SetupExperimentTYPE *setup;
+    fmi2ComponentCallTYPE *enter, *exit_init, *terminate, *reset;
+    fmi2GetRealTYPE *get_real;
+    fmi2GetIntegerTYPE *get_int;
+    fmi2GetBooleanTYPE *get_bool;
+    fmi2SetRealTYPE *set_real;
+    fmi2SetIntegerTYPE *set_int;
+    fmi2SetBooleanTYPE *set_bool;
+    fmi2GetFMUstateTYPE *get_state;
+    fmi2SetFMUstateTYPE *set_state;
+    fmi2FreeFMUstateTYPE *free_state;
+    fmi2SerializedFMUstateSizeTYPE *state_size;
+    fmi2SerializeFMUstateTYPE *serialize;
+    fmi2DeSerializeFMUstateTYPE *deserialize;
+    fmi2DoStepTYPE *do_step;
+    void (*release_guard)(void); /* pythonfmu's finalizePythonInterpreter */
+} inner;
+static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER; /* loading, instantiate, free */
+static int g_loaded;
+
+/* A state handed to the host: the slave's state and this layer's mode, in a list per
+ * instance so that a pointer the instance did not hand out is refused, not dereferenced. */
+typedef struct State {
+    uint32_t magic;
+    Mode mode;
+    fmi2FMUstate inner;
+    struct State *next;
+} State;
+#define STATE_MAGIC 0x47505354u
+
+typedef struct {
+    fmi2Component inner;
+    fmi2CallbackFunctions host;
+    fmi2CallbackFunctions mine; /* given to pythonfmu: our logger, the host's memory */
+    char *name;
+    Mode mode;
+    int logging_on;
+    char **categories; /* debug categories enabled (NULL: all) */
+    size_t n_categories;
+    fmi2Status worst; /* worst status the slave logged during the current call */
+    double last_successful_time;
+    State *states;
+} Shim;
+
+/* -- logging ---------------------------------------------------------------------------- */
+static int debug_enabled(const Shim *s, const char *category) {
+    if (!s->logging_on) return 0;
+    if (!s->categories) return 1;
+    for (size_t i = 0; i < s->n_categories; i++)
+        if (category && !strcmp(s->categories[i], category)) return 1;
+    return 0;
+}
+
+/* The message goes out as the format argument itself with every '%' doubled: a C host
+ * that formats it prints the text, and hosts that take it verbatim (fmpy's ctypes logger)
+ * show it as it is (a literal "%" appears doubled there). */
+static void emit(Shim *s, fmi2Status status, const char *category, const char *msg) {
+    if (!s->host.logger) return;
+    if (status == fmi2OK && !debug_enabled(s, category)) return;
+    size_t n = strlen(msg), extra = 0;
+    for (size_t i = 0; i < n; i++) extra += msg[i] == '%';
+    char small[2048], *buf = n + extra < sizeof small ? small : malloc(n + extra + 1);
+    if (!buf) return;
+    char *o = buf;
+    for (size_t i = 0; i < n; i++) {
+        *o++ = msg[i];
+        if (msg[i] == '%') *o++ = '%';
+    }
+    *o = 0;
+    s->host.logger(s->host.componentEnvironment, s->name, status, category ? category : "",
+                   buf);
+    if (buf != small) free(buf);
+}
+
+static const char *status_category(fmi2Status st) {
+    switch (st) {
+    case fmi2Warning: return "logStatusWarning";
+    case fmi2Discard: return "logStatusDiscard";
+    case fmi2Error: return "logStatusError";
+    case fmi2Fatal: return "logStatusFatal";
+    default: return "logAll";
+    }
+}
+
+static void say(Shim *s, fmi2Status status, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void say(Shim *s, fmi2Status status, const char *fmt, ...) {
+    char buf[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    emit(s, status, status_category(status), buf);
+}
+
+/* pythonfmu's logger callback: remember the worst status, pass the message on (pythonfmu
+ * hands over a printf format, as FMI 2.0 allows). */
+static void inner_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                         fmi2String category, fmi2String message, ...) {
+    (void)instance;
+    Shim *s = (Shim *)env;
+    if (!s || !message) return;
+    if (status > s->worst) s->worst = status;
+    char small[2048], *buf = small;
+    va_list ap;
+    va_start(ap, message);
+    int n = vsnprintf(small, sizeof small, message, ap);
+    va_end(ap);
+    if (n >= (int)sizeof small) {
+        char *big = malloc((size_t)n + 1);
+        if (big) {
+            va_start(ap, message);
+            vsnprintf(big, (size_t)n + 1, message, ap);
+            va_end(ap);
+            buf = big;
+        }
+    }
+    emit(s, status, category, buf);
+    if (buf != small) free(buf);
+}
+
+/* -- loading pythonfmu and the interpreter ------------------------------------------------ */
+static void *load_sym(void *lib, const char *name, char *err, size_t n) {
+    void *f = dlsym(lib, name);
+    if (!f && !err[0]) snprintf(err, n, "%s has no function %s", GP_INNER_LIB, name);
+    return f;
+}
+
+/* The embedded interpreter: started here, once per process, and never finalized.
+ *
+ * pythonfmu starts Python itself when the host has not, and finalizes it from a C++ static
+ * destructor at process exit. Exit handlers run in the reverse order of registration, and
+ * that destructor is registered when pythonfmu's library loads, before the Python extension
+ * modules the slave imports register theirs: by the time pythonfmu finalizes, scipy's
+ * `_uarray` (imported through scipy.optimize/scipy.linalg) has destroyed its static C++
+ * objects, and the interpreter's final garbage collection frees them a second time (heap
+ * corruption, SIGSEGV in `Function::clear`). Starting the interpreter here, before
+ * pythonfmu looks, makes pythonfmu treat it as the host's: it never finalizes it. The
+ * interpreter then ends with the process, as Python's own extension modules expect (their
+ * static destructors run after a live or finalized interpreter alike, never before a
+ * finalization). Finalizing it earlier (at the last fmi2FreeInstance) is not an option:
+ * numpy and scipy cannot be imported again into a second interpreter of the same process.
+ * In a Python host the interpreter is the host's and nothing here touches it. */
+static int ensure_python(char *err, size_t n) {
+    int (*is_init)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    if (!is_init) {
+        snprintf(err, n, "the Python C API is not loaded in this process: a host that is not "
+                 "Python must preload the shared libpython whose packages (numpy, scipy, "
+                 "numba) the FMU should use, e.g. LD_PRELOAD=<prefix>/lib/libpython3.X.so and "
+                 "PYTHONPATH=<environment>/lib/python3.X/site-packages");
+        return -1;
+    }
+    if (is_init()) return 0;
+    void (*set_name)(const wchar_t *) =
+        (void (*)(const wchar_t *))dlsym(RTLD_DEFAULT, "Py_SetProgramName");
+    void (*init_ex)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "Py_InitializeEx");
+    void *(*save_thread)(void) = (void *(*)(void))dlsym(RTLD_DEFAULT, "PyEval_SaveThread");
+    if (!init_ex || !save_thread) {
+        snprintf(err, n, "the loaded libpython lacks Py_InitializeEx/PyEval_SaveThread");
+        return -1;
+    }
+    /* a program name that is not on PATH: the prefix (standard library) then comes from
+     * the preloaded libpython itself, not from whichever python3 PATH finds first */
+    if (set_name) set_name(L"./GearPairFMU");
+    init_ex(0); /* 0: leave the host's signal handlers alone */
+    save_thread(); /* release the GIL: pythonfmu takes it per call, from any thread */
+    return 0;
+}
+
+static int load_inner(char *err, size_t n) {
+    if (g_loaded) return 0;
+    if (ensure_python(err, n)) return -1;
+    Dl_info info;
+    if (!dladdr((void *)&load_inner, &info) || !info.dli_fname) {
+        snprintf(err, n, "cannot locate the FMU's binary folder (dladdr failed)");
+        return -1;
+    }
+    char path[4096];
+    const char *slash = strrchr(info.dli_fname, '/');
+    int dirlen = slash ? (int)(slash - info.dli_fname) : 1;
+    snprintf(path, sizeof path, "%.*s/%s", dirlen, slash ? info.dli_fname : ".", GP_INNER_LIB);
+    /* NODELETE: Python holds pointers into it (the slave's logger) until the process ends */
+    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
+    if (!lib) {
+        snprintf(err, n, "cannot load %s: %s", path, dlerror());
+        return -1;
+    }
+    err[0] = 0;
+    inner.instantiate = (fmi2InstantiateTYPE *)load_sym(lib, "fmi2Instantiate", err, n);
+    inner.free_instance = (fmi2FreeInstanceTYPE *)load_sym(lib, "fmi2FreeInstance", err, n);
+    inner.setup = (fmi2SetupExperimentTYPE *)load_sym(lib, "fmi2SetupExperiment", err, n);
+    inner.enter = (fmi2ComponentCallTYPE *)load_sym(lib, "fmi2EnterInitializationMode", err, n);
+    inner.exit_init = (fmi2ComponentCallTYPE *)load_sym(lib, "fmi2ExitInitializationMode", err, n);
+    inner.terminate = (fmi2ComponentCallTYPE *)load_sym(lib, "fmi2Terminate", err, n);
+    inner.reset = (fmi2ComponentCallTYPE *)load_sym(lib, "fmi2Reset", err, n);
+    inner.get_real = (fmi2GetRealTYPE *)load_sym(lib, "fmi2GetReal", err, n);
+    inner.get_int = (fmi2GetIntegerTYPE *)load_sym(lib, "fmi2GetInteger", err, n);
+    inner.get_bool = (fmi2GetBooleanTYPE *)load_sym(lib, "fmi2GetBoolean", err, n);
+    inner.set_real = (fmi2SetRealTYPE *)load_sym(lib, "fmi2SetReal", err, n);
+    inner.set_int = (fmi2SetIntegerTYPE *)load_sym(lib, "fmi2SetInteger", err, n);
+    inner.set_bool = (fmi2SetBooleanTYPE *)load_sym(lib, "fmi2SetBoolean", err, n);
+    inner.get_state = (fmi2GetFMUstateTYPE *)load_sym(lib, "fmi2GetFMUstate", err, n);
+    inner.set_state = (fmi2SetFMUstateTYPE *)load_sym(lib, "fmi2SetFMUstate", err, n);
+    inner.free_state = (fmi2FreeFMUstateTYPE *)load_sym(lib, "fmi2FreeFMUstate", err, n);
+    inner.state_size =
+        (fmi2SerializedFMUstateSizeTYPE *)load_sym(lib, "fmi2SerializedFMUstateSize", err, n);
+    inner.serialize = (fmi2SerializeFMUstateTYPE *)load_sym(lib, "fmi2SerializeFMUstate", err, n);
+    inner.deserialize =
+        (fmi2DeSerializeFMUstateTYPE *)load_sym(lib, "fmi2DeSerializeFMUstate", err, n);
+    inner.do_step = (fmi2DoStepTYPE *)load_sym(lib, "fmi2DoStep", err, n);
+    if (err[0]) return -1;
+    inner.release_guard = (void (*)(void))dlsym(lib, "finalizePythonInterpreter");
+    g_loaded = 1;
+    return 0;
+}
+
+/* -- helpers ----------------------------------------------------------------------------- */
+static Shim *live(fmi2Component c) { return (Shim *)c; }
+
+/* Refuse a call not allowed in the instance's mode. */
+static int allowed(Shim *s, unsigned modes, const char *fn) {
+    if (IN(s->mode, modes)) return 1;
+    say(s, fmi2Error, "%s is not allowed in %s%s", fn, MODE_NAME[s->mode],
+        s->mode == M_INIT && !strcmp(fn, "fmi2DoStep")
+            ? ": call fmi2ExitInitializationMode first"
+            : s->mode == M_INSTANTIATED && !strcmp(fn, "fmi2DoStep")
+                  ? ": call fmi2EnterInitializationMode and fmi2ExitInitializationMode first"
+                  : "");
+    return 0;
+}
+
+/* Status of a forwarded call: fmi2Error when the slave logged an error during it (the
+ * slave's way to refuse without an exception), fmi2Fatal makes the instance unusable. */
+static fmi2Status settle(Shim *s, fmi2Status st) {
+    if (st == fmi2Fatal || s->worst == fmi2Fatal) {
+        s->mode = M_FATAL;
+        return fmi2Fatal;
+    }
+    if (s->worst >= fmi2Error && st < fmi2Error) st = fmi2Error;
+    return st;
+}
+
+static void begin(Shim *s) { s->worst = fmi2OK; }
+
+static const GpVar *find_var(unsigned vr, char type) {
+    for (int i = 0; i < GP_NVARS; i++)
+        if (GP_VARS[i].vr == vr && GP_VARS[i].type == type) return &GP_VARS[i];
+    return NULL;
+}
+
+static const char *type_name(char t) {
+    return t == 'R' ? "Real" : t == 'I' ? "Integer" : "Boolean";
+}
+
+static int check_refs(Shim *s, const char *fn, const fmi2ValueReference vr[], size_t nvr,
+                      const void *values, char type) {
+    if (nvr == 0) return 1;
+    if (!vr || !values) {
+        say(s, fmi2Error, "%s: null value reference or value array for %zu values", fn, nvr);
+        return 0;
+    }
+    for (size_t i = 0; i < nvr; i++)
+        if (!find_var(vr[i], type)) {
+            say(s, fmi2Error, "%s: value reference %u is not a %s variable of this FMU", fn,
+                vr[i], type_name(type));
+            return 0;
+        }
+    return 1;
+}
+
+static void range_text(const GpVar *v, char *buf, size_t n) {
+    const char *u = v->unit[0] ? " " : "";
+    if (v->codes)
+        snprintf(buf, n, "allowed %s", v->codes);
+    else if (v->has_lo && v->has_hi)
+        snprintf(buf, n, "allowed %c%.10g, %.10g]%s%s", v->lo_open ? '(' : '[', v->lo, v->hi,
+                 u, v->unit);
+    else if (v->has_lo)
+        snprintf(buf, n, "allowed %s %.10g%s%s", v->lo_open ? ">" : ">=", v->lo, u, v->unit);
+    else if (v->has_hi)
+        snprintf(buf, n, "allowed <= %.10g%s%s", v->hi, u, v->unit);
+    else
+        snprintf(buf, n, "allowed any finite value");
+}
+
+/* Whether this instance may set variable v now; logs why not. */
+static int settable(Shim *s, const char *fn, const GpVar *v) {
+    if (v->causality == 'o') {
+        say(s, fmi2Error, "%s: %s is an output and cannot be set", fn, v->name);
+        return 0;
+    }
+    if (s->mode == M_STEP && !v->tunable) {
+        say(s, fmi2Error, "%s: parameter %s is fixed (variability fixed): it can be set only "
+            "before fmi2ExitInitializationMode; it keeps its value (reset the FMU to change "
+            "it)", fn, v->name);
+        return 0;
+    }
+    return 1;
+}
+
+static int real_ok(Shim *s, const char *fn, const GpVar *v, double x) {
+    int ok = isfinite(x) && !(v->has_lo && (v->lo_open ? x <= v->lo : x < v->lo)) &&
+             !(v->has_hi && x > v->hi);
+    if (!ok) {
+        char r[256];
+        range_text(v, r, sizeof r);
+        say(s, fmi2Error, "%s: %s = %.10g%s%s is %s; %s. The value is not taken: %s keeps its "
+            "value", fn, v->name, x, v->unit[0] ? " " : "", v->unit,
+            isfinite(x) ? "out of range" : "not finite", r, v->name);
+    }
+    return ok;
+}
+
+static int int_ok(Shim *s, const char *fn, const GpVar *v, int x) {
+    int ok = !(v->has_lo && (v->lo_open ? x <= v->lo : x < v->lo)) &&
+             !(v->has_hi && x > v->hi);
+    if (!ok) {
+        char r[256];
+        range_text(v, r, sizeof r);
+        say(s, fmi2Error, "%s: %s = %d is out of range; %s. The value is not taken: %s keeps "
+            "its value", fn, v->name, x, r, v->name);
+    }
+    return ok;
+}
+
+/* -- CRC-32 (IEEE 802.3 polynomial, reflected) for serialized states -------------------- */
+static uint32_t crc32_of(const unsigned char *p, size_t n, uint32_t crc) {
+    crc = ~crc;
+    for (size_t i = 0; i < n; i++) {
+        crc ^= p[i];
+        for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    return ~crc;
+}
+
+/* Trailer appended to the slave's serialized state: tag, mode, payload length, CRC-32 of
+ * payload and the preceding trailer fields (little-endian). */
+#define TRAILER_TAG "GPFMUST1"
+#define TRAILER_SIZE 20
+
+static void put32(unsigned char *p, uint32_t x) {
+    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(x >> (8 * i));
+}
+static uint32_t get32(const unsigned char *p) {
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* Deliver what the slave queued outside a call (its constructor's messages, e.g. after
+ * fmi2Instantiate or fmi2Reset): pythonfmu passes queued messages on at the end of each call,
+ * and its destructor crashes (SIGSEGV in clearLogBuffer) when it finds any left at
+ * fmi2FreeInstance. A fmi2GetReal of no variables is a call that does nothing else. */
+static void flush_log(Shim *s) {
+    fmi2ValueReference none = 0;
+    fmi2Real unused = 0.0;
+    begin(s);
+    settle(s, inner.get_real(s->inner, &none, 0, &unused));
+}
+
+static State *find_state(Shim *s, fmi2FMUstate p, State ***link) {
+    State **l = &s->states;
+    for (State *st = s->states; st; l = &st->next, st = st->next)
+        if ((void *)st == p) {
+            if (link) *link = l;
+            return st;
+        }
+    return NULL;
+}
+
+static State *new_state(Shim *s, fmi2FMUstate in, Mode mode) {
+    State *st = calloc(1, sizeof *st);
+    if (!st) return NULL;
+    st->magic = STATE_MAGIC;
+    st->mode = mode;
+    st->inner = in;
+    st->next = s->states;
+    s->states = st;
+    return st;
+}
+
+/* ======================================================================================== */
+EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
+EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
+
+EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid,
+                                     fmi2String resources, const fmi2CallbackFunctions *cb,
+                                     fmi2Boolean visible, fmi2Boolean logging_on) {
+    if (!cb) return NULL;
+    Shim *s = calloc(1, sizeof *s);
+    if (!s) return NULL;
+    s->host = *cb;
+    s->name = strdup(name ? name : "");
+    s->logging_on = logging_on == fmi2True;
+    s->mode = M_INSTANTIATED;
+    if (!s->name) goto fail;
+    if (type != fmi2CoSimulation) {
+        say(s, fmi2Error, "fmi2Instantiate: this FMU supports co-simulation only");
+        goto fail;
+    }
+    if (!guid || strcmp(guid, GP_GUID)) {
+        say(s, fmi2Error, "fmi2Instantiate: GUID %s does not match this FMU's %s", guid ? guid
+            : "(null)", GP_GUID);
+        goto fail;
+    }
+    char err[1024] = "";
+    pthread_mutex_lock(&g_lock);
+    int bad = load_inner(err, sizeof err);
+    if (!bad) {
+        s->mine = *cb;
+        s->mine.logger = inner_logger;
+        s->mine.componentEnvironment = s;
+        if (!s->mine.allocateMemory || !s->mine.freeMemory) {
+            s->mine.allocateMemory = calloc;
+            s->mine.freeMemory = free;
+        }
+        s->inner = inner.instantiate(name, type, guid, resources, &s->mine, visible, fmi2True);
+        /* pythonfmu keeps its interpreter guard in a static shared_ptr and releases it twice
+         * at exit (a C++ static destructor, then an ELF destructor that reads the freed
+         * block). Emptying the static now makes both no-ops; the instance holds its own
+         * reference, and the guard owns nothing since the interpreter is not pythonfmu's. */
+        if (s->inner && inner.release_guard) inner.release_guard();
+    }
+    pthread_mutex_unlock(&g_lock);
+    if (bad) {
+        say(s, fmi2Error, "fmi2Instantiate: %s", err);
+        goto fail;
+    }
+    if (!s->inner) goto fail; /* pythonfmu logged why */
+    flush_log(s);
+    return s;
+fail:
+    free(s->name);
+    free(s);
+    return NULL;
+}
+
+EXPORT void fmi2FreeInstance(fmi2Component c) {
+    Shim *s = live(c);
+    if (!s) return;
+    for (State *st = s->states, *nx; st; st = nx) {
+        nx = st->next;
+        inner.free_state(s->inner, &st->inner);
+        st->magic = 0;
+        free(st);
+    }
+    if (s->mode != M_FATAL) flush_log(s);
+    pthread_mutex_lock(&g_lock);
+    inner.free_instance(s->inner);
+    pthread_mutex_unlock(&g_lock);
+    for (size_t i = 0; i < s->n_categories; i++) free(s->categories[i]);
+    free(s->categories);
+    free(s->name);
+    free(s);
+}
+
+EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
+                                      const fmi2String categories[]) {
+    Shim *s = live(c);
+    if (!s) return fmi2Error;
+    if (n && !categories) {
+        say(s, fmi2Error, "fmi2SetDebugLogging: %zu categories but a null array", n);
+        return fmi2Error;
+    }
+    char **copy = NULL;
+    if (n) {
+        copy = calloc(n, sizeof *copy);
+        if (!copy) return fmi2Error;
+        for (size_t i = 0; i < n; i++) copy[i] = strdup(categories[i] ? categories[i] : "");
+    }
+    for (size_t i = 0; i < s->n_categories; i++) free(s->categories[i]);
+    free(s->categories);
+    s->categories = copy;
+    s->n_categories = n;
+    s->logging_on = on == fmi2True;
+    return fmi2OK;
+}
+
+EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol,
+                                      fmi2Real start, fmi2Boolean stop_defined, fmi2Real stop) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, B(M_INSTANTIATED), "fmi2SetupExperiment")) return fmi2Error;
+    if (!isfinite(start) || (stop_defined && !(stop >= start))) {
+        say(s, fmi2Error, "fmi2SetupExperiment: startTime = %.17g s must be finite and "
+            "stopTime (%.17g s) not before it", start, stop_defined ? stop : start);
+        return fmi2Error;
+    }
+    begin(s);
+    return settle(s, inner.setup(s->inner, tol_defined, tol, start, stop_defined, stop));
+}
+
+EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, B(M_INSTANTIATED), "fmi2EnterInitializationMode")) return fmi2Error;
+    begin(s);
+    fmi2Status st = settle(s, inner.enter(s->inner));
+    if (st <= fmi2Warning) s->mode = M_INIT;
+    return st;
+}
+
+EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, B(M_INIT), "fmi2ExitInitializationMode")) return fmi2Error;
+    begin(s);
+    fmi2Status st = settle(s, inner.exit_init(s->inner));
+    /* refused (e.g. a combination of parameters): the instance stays in initialization
+     * mode, so the master may correct a parameter and call this again */
+    if (st <= fmi2Warning) s->mode = M_STEP;
+    s->last_successful_time = NAN;
+    return st;
+}
+
+EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, B(M_STEP), "fmi2Terminate")) return fmi2Error;
+    begin(s);
+    fmi2Status st = settle(s, inner.terminate(s->inner));
+    if (st <= fmi2Warning) s->mode = M_TERMINATED;
+    return st;
+}
+
+EXPORT fmi2Status fmi2Reset(fmi2Component c) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, ANY_LIVE, "fmi2Reset")) return fmi2Error;
+    begin(s);
+    fmi2Status st = settle(s, inner.reset(s->inner));
+    if (st <= fmi2Warning) {
+        s->mode = M_INSTANTIATED;
+        flush_log(s); /* the new slave's constructor messages */
+    }
+    return st;
+}
+
+/* -- get/set ----------------------------------------------------------------------------- */
+#define GET_MODES (B(M_INIT) | B(M_STEP) | B(M_TERMINATED))
+
+EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                              fmi2Real value[]) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, GET_MODES, "fmi2GetReal")) return fmi2Error;
+    if (!check_refs(s, "fmi2GetReal", vr, nvr, value, 'R')) return fmi2Error;
+    if (!nvr) return fmi2OK;
+    begin(s);
+    return settle(s, inner.get_real(s->inner, vr, nvr, value));
+}
+
+EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 fmi2Integer value[]) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, GET_MODES, "fmi2GetInteger")) return fmi2Error;
+    if (!check_refs(s, "fmi2GetInteger", vr, nvr, value, 'I')) return fmi2Error;
+    if (!nvr) return fmi2OK;
+    begin(s);
+    return settle(s, inner.get_int(s->inner, vr, nvr, value));
+}
+
+EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 fmi2Boolean value[]) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, GET_MODES, "fmi2GetBoolean")) return fmi2Error;
+    if (!check_refs(s, "fmi2GetBoolean", vr, nvr, value, 'B')) return fmi2Error;
+    if (!nvr) return fmi2OK;
+    begin(s);
+    return settle(s, inner.get_bool(s->inner, vr, nvr, value));
+}
+
+EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                fmi2String value[]) {
+    Shim *s = live(c);
+    (void)vr;
+    (void)value;
+    if (!s || !allowed(s, GET_MODES, "fmi2GetString")) return fmi2Error;
+    if (!nvr) return fmi2OK;
+    say(s, fmi2Error, "fmi2GetString: this FMU has no String variables");
+    return fmi2Error;
+}
+
+#define SET_MODES (B(M_INSTANTIATED) | B(M_INIT) | B(M_STEP))
+
+EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                              const fmi2Real value[]) {
+    static const char fn[] = "fmi2SetReal";
+    Shim *s = live(c);
+    if (!s || !allowed(s, SET_MODES, fn)) return fmi2Error;
+    if (!check_refs(s, fn, vr, nvr, value, 'R')) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) {
+        const GpVar *v = find_var(vr[i], 'R');
+        if (!settable(s, fn, v) || !real_ok(s, fn, v, value[i])) return fmi2Error;
+    }
+    if (!nvr) return fmi2OK;
+    begin(s);
+    return settle(s, inner.set_real(s->inner, vr, nvr, value));
+}
+
+EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 const fmi2Integer value[]) {
+    static const char fn[] = "fmi2SetInteger";
+    Shim *s = live(c);
+    if (!s || !allowed(s, SET_MODES, fn)) return fmi2Error;
+    if (!check_refs(s, fn, vr, nvr, value, 'I')) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) {
+        const GpVar *v = find_var(vr[i], 'I');
+        if (!settable(s, fn, v) || !int_ok(s, fn, v, value[i])) return fmi2Error;
+    }
+    if (!nvr) return fmi2OK;
+    begin(s);
+    return settle(s, inner.set_int(s->inner, vr, nvr, value));
+}
+
+EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 const fmi2Boolean value[]) {
+    static const char fn[] = "fmi2SetBoolean";
+    Shim *s = live(c);
+    if (!s || !allowed(s, SET_MODES, fn)) return fmi2Error;
+    if (!check_refs(s, fn, vr, nvr, value, 'B')) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++)
+        if (!settable(s, fn, find_var(vr[i], 'B'))) return fmi2Error;
+    if (!nvr) return fmi2OK;
+    fmi2Boolean small[64], *norm = nvr <= 64 ? small : malloc(nvr * sizeof *norm);
+    if (!norm) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) norm[i] = value[i] ? fmi2True : fmi2False;
+    begin(s);
+    fmi2Status st = settle(s, inner.set_bool(s->inner, vr, nvr, norm));
+    if (norm != small) free(norm);
+    return st;
+}
+
+EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                const fmi2String value[]) {
+    Shim *s = live(c);
+    (void)vr;
+    (void)value;
+    if (!s || !allowed(s, SET_MODES, "fmi2SetString")) return fmi2Error;
+    if (!nvr) return fmi2OK;
+    say(s, fmi2Error, "fmi2SetString: this FMU has no String variables");
+    return fmi2Error;
+}
+
+/* -- stepping ---------------------------------------------------------------------------- */
+EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_set) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, B(M_STEP), "fmi2DoStep")) return fmi2Error;
+    if (!isfinite(t) || !isfinite(h) || !(h > 0.0)) {
+        say(s, fmi2Error, "fmi2DoStep refused: currentCommunicationPoint = %.17g s and "
+            "communicationStepSize = %.17g s must be finite and the step size > 0; the FMU "
+            "state is unchanged", t, h);
+        return fmi2Error;
+    }
+    begin(s);
+    fmi2Status st = settle(s, inner.do_step(s->inner, t, h, no_set));
+    /* The slave refuses a step (wrong communication point, invalid input: fmi2Error) or
+     * fails inside it (fmi2Discard) only after restoring the state of the step start, so
+     * the instance stays in step mode either way: the master may repeat the step with
+     * other inputs or a smaller size. */
+    if (st <= fmi2Warning)
+        s->last_successful_time = t + h;
+    else if (st == fmi2Discard)
+        s->last_successful_time = t;
+    return st;
+}
+
+EXPORT fmi2Status fmi2CancelStep(fmi2Component c) {
+    Shim *s = live(c);
+    if (s) say(s, fmi2Error, "fmi2CancelStep: steps are synchronous, there is none to cancel");
+    return fmi2Error;
+}
+
+#define STATUS_MODES (B(M_STEP) | B(M_TERMINATED))
+
+EXPORT fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status *v) {
+    Shim *s = live(c);
+    (void)k;
+    (void)v;
+    if (!s || !allowed(s, STATUS_MODES, "fmi2GetStatus")) return fmi2Error;
+    return fmi2Discard; /* no asynchronous step: no status to report */
+}
+
+EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *v) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, STATUS_MODES, "fmi2GetRealStatus")) return fmi2Error;
+    if (k != fmi2LastSuccessfulTime || !v) return fmi2Discard;
+    *v = s->last_successful_time;
+    return fmi2OK;
+}
+
+EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer *v) {
+    Shim *s = live(c);
+    (void)k;
+    (void)v;
+    if (!s || !allowed(s, STATUS_MODES, "fmi2GetIntegerStatus")) return fmi2Error;
+    return fmi2Discard;
+}
+
+EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, STATUS_MODES, "fmi2GetBooleanStatus")) return fmi2Error;
+    if (k != fmi2Terminated || !v) return fmi2Discard;
+    *v = fmi2False; /* the slave never asks to end the simulation */
+    return fmi2OK;
+}
+
+EXPORT fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *v) {
+    Shim *s = live(c);
+    (void)k;
+    (void)v;
+    if (!s || !allowed(s, STATUS_MODES, "fmi2GetStringStatus")) return fmi2Error;
+    return fmi2Discard;
+}
+
+static fmi2Status unsupported(fmi2Component c, const char *fn) {
+    Shim *s = live(c);
+    if (s) say(s, fmi2Error, "%s is not supported by this FMU", fn);
+    return fmi2Error;
+}
+
+EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
+                                               size_t nu, const fmi2ValueReference z[],
+                                               size_t nz, const fmi2Real dv[], fmi2Real dz[]) {
+    (void)u, (void)nu, (void)z, (void)nz, (void)dv, (void)dz;
+    return unsupported(c, "fmi2GetDirectionalDerivative (providesDirectionalDerivative is "
+                          "false)");
+}
+
+EXPORT fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                              size_t nvr, const fmi2Integer order[],
+                                              const fmi2Real value[]) {
+    (void)vr, (void)nvr, (void)order, (void)value;
+    return unsupported(c, "fmi2SetRealInputDerivatives (canInterpolateInputs is false)");
+}
+
+EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                               size_t nvr, const fmi2Integer order[],
+                                               fmi2Real value[]) {
+    (void)vr, (void)nvr, (void)order, (void)value;
+    return unsupported(c, "fmi2GetRealOutputDerivatives (maxOutputDerivativeOrder is 0)");
+}
+
+/* -- FMU state --------------------------------------------------------------------------- */
+EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, ANY_LIVE, "fmi2GetFMUstate")) return fmi2Error;
+    if (!state) {
+        say(s, fmi2Error, "fmi2GetFMUstate: null state pointer");
+        return fmi2Error;
+    }
+    State *own = *state ? find_state(s, *state, NULL) : NULL;
+    if (*state && !own) {
+        say(s, fmi2Error, "fmi2GetFMUstate: *FMUstate is neither null nor a state of this "
+            "instance");
+        return fmi2Error;
+    }
+    fmi2FMUstate in = NULL;
+    begin(s);
+    fmi2Status st = settle(s, inner.get_state(s->inner, &in));
+    if (st > fmi2Warning) return st;
+    if (own) { /* overwrite the given state, as the standard allows */
+        inner.free_state(s->inner, &own->inner);
+        own->inner = in;
+        own->mode = s->mode;
+        return st;
+    }
+    State *nw = new_state(s, in, s->mode);
+    if (!nw) {
+        inner.free_state(s->inner, &in);
+        say(s, fmi2Error, "fmi2GetFMUstate: out of memory");
+        return fmi2Error;
+    }
+    *state = nw;
+    return st;
+}
+
+static State *known_state(Shim *s, fmi2FMUstate p, const char *fn) {
+    State *st = p ? find_state(s, p, NULL) : NULL;
+    if (!st) say(s, fmi2Error, "%s: not an FMU state of this instance (freed, or from "
+                 "elsewhere)", fn);
+    return st;
+}
+
+EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, ANY_LIVE, "fmi2SetFMUstate")) return fmi2Error;
+    State *st = known_state(s, state, "fmi2SetFMUstate");
+    if (!st) return fmi2Error;
+    begin(s);
+    fmi2Status r = settle(s, inner.set_state(s->inner, st->inner));
+    if (r <= fmi2Warning) s->mode = st->mode; /* refused: the slave kept its state */
+    return r;
+}
+
+EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, ANY_LIVE, "fmi2FreeFMUstate")) return fmi2Error;
+    if (!state || !*state) return fmi2OK; /* the standard: a null state is ignored */
+    State **link;
+    State *st = find_state(s, *state, &link);
+    if (!st) {
+        say(s, fmi2Error, "fmi2FreeFMUstate: not an FMU state of this instance (freed "
+            "already, or from elsewhere)");
+        return fmi2Error;
+    }
+    *link = st->next;
+    begin(s);
+    fmi2Status r = settle(s, inner.free_state(s->inner, &st->inner));
+    st->magic = 0;
+    free(st);
+    *state = NULL;
+    return r;
+}
+
+EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, ANY_LIVE, "fmi2SerializedFMUstateSize")) return fmi2Error;
+    State *st = known_state(s, state, "fmi2SerializedFMUstateSize");
+    if (!st || !size) return fmi2Error;
+    size_t n = 0;
+    begin(s);
+    fmi2Status r = settle(s, inner.state_size(s->inner, st->inner, &n));
+    if (r <= fmi2Warning) *size = n + TRAILER_SIZE;
+    return r;
+}
+
+EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
+                                        size_t size) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, ANY_LIVE, "fmi2SerializeFMUstate")) return fmi2Error;
+    State *st = known_state(s, state, "fmi2SerializeFMUstate");
+    if (!st) return fmi2Error;
+    size_t n = 0;
+    begin(s);
+    fmi2Status r = settle(s, inner.state_size(s->inner, st->inner, &n));
+    if (r > fmi2Warning) return r;
+    if (!bytes || size != n + TRAILER_SIZE || n > 0xFFFFFFFFu) {
+        say(s, fmi2Error, "fmi2SerializeFMUstate: the buffer must have the size "
+            "fmi2SerializedFMUstateSize gave (%zu bytes), got %zu", n + TRAILER_SIZE, size);
+        return fmi2Error;
+    }
+    r = settle(s, inner.serialize(s->inner, st->inner, bytes, n));
+    if (r > fmi2Warning) return r;
+    unsigned char *t = (unsigned char *)bytes + n;
+    memcpy(t, TRAILER_TAG, 8);
+    put32(t + 8, (uint32_t)st->mode);
+    put32(t + 12, (uint32_t)n);
+    put32(t + 16, crc32_of((const unsigned char *)bytes, n + 16, 0));
+    return r;
+}
+
+EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size,
+                                          fmi2FMUstate *state) {
+    Shim *s = live(c);
+    if (!s || !allowed(s, ANY_LIVE, "fmi2DeSerializeFMUstate")) return fmi2Error;
+    if (!state || (size && !bytes)) {
+        say(s, fmi2Error, "fmi2DeSerializeFMUstate: null argument");
+        return fmi2Error;
+    }
+    const unsigned char *b = (const unsigned char *)bytes;
+    const unsigned char *t = size >= TRAILER_SIZE ? b + size - TRAILER_SIZE : NULL;
+    if (!t || memcmp(t, TRAILER_TAG, 8) || get32(t + 12) != size - TRAILER_SIZE ||
+        get32(t + 8) > M_TERMINATED || crc32_of(b, size - 4, 0) != get32(t + 16)) {
+        say(s, fmi2Error, "fmi2DeSerializeFMUstate: the %zu bytes are not a complete, "
+            "unaltered serialized state of this FMU (format tag, length or checksum wrong); "
+            "nothing was restored", size);
+        return fmi2Error;
+    }
+    fmi2FMUstate in = NULL;
+    begin(s);
+    fmi2Status r = settle(s, inner.deserialize(s->inner, bytes, size - TRAILER_SIZE, &in));
+    if (r > fmi2Warning) return r;
+    State *nw = new_state(s, in, (Mode)get32(t + 8));
+    if (!nw) {
+        inner.free_state(s->inner, &in);
+        return fmi2Error;
+    }
+    *state = nw;
+    return r;
+}

@@ -1,0 +1,197 @@
+"""What the summaries, sweeps and the command line report (issue 17): statistics over the whole
+trajectory, the fast engine as the default, back-flank contact as contact, points outside the
+model, standstill and user errors.
+
+The mean mesh force has an expected value from the model itself. Gear 1's rotation
+(coordinate u1 on the base circle, input shaft kr1 = 0 in Table 1) obeys
+``m1 u1'' = Tr / rb1 - (F_mesh + c_m delta') + M_f / rb1``, with ``M_f`` the moment of the
+tooth friction forces about gear 1's axis (arms s1m). Averaged over a window of length
+``T_w`` in steady state the inertia term ``m1 du1'/T_w`` and the mesh damping ``c_m d(delta)/T_w``
+vanish, so ``mean(F_mesh) = Tr/rb1 + mean(M_f)/rb1``: exactly ``Tr/rb1`` without friction,
+and with friction off by the friction moment's mean, which changes sign at the pitch point
+and is a few tenths of a per cent here (bounded below by ``mu`` times the arm ratio).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from gearpair import RPM, Effects, GearParams, make_engine
+from gearpair.cli import main
+from gearpair.fast import FastEngine
+from gearpair.results import simulate
+from gearpair.scenes import SceneWarning, load_scene
+from gearpair.sweep import SweepSettings, run_point, run_sweep
+
+P = GearParams()
+TR = 3900.0
+QUICK = SweepSettings(transient_periods=60, transient_time=0.0, kept_periods=40, max_time=1.0,
+                      min_periods=4)
+
+
+def _mesh_period(rpm: float) -> float:
+    return 2 * math.pi / (P.z1 * rpm * RPM)
+
+
+# -- 1. statistics from the whole trajectory -------------------------------------------------
+@pytest.mark.parametrize("rpm", [467.0, 1200.0])
+def test_mean_mesh_force_is_tr_over_rb1_where_the_sampling_phase_locks(rpm):
+    """Without friction the mean mesh force is Tr/rb1 (module docstring). The sweep samples 8
+    times per mesh period at fixed phases and the summary here records at a phase-locked
+    interval (8 per period too): their sample means are off by percents (checked below, so
+    the test does bite), the reported means are not."""
+    ideal = TR / P.rb1
+    settings = QUICK.replace(friction="off")
+    rec = run_point(0, "speed_rpm", rpm, settings)
+    assert rec["status"] == "ok", rec["error"]
+    assert rec["mesh_force_mean_kn"] * 1e3 == pytest.approx(ideal, rel=1e-3)
+    tm = _mesh_period(rpm)
+    traj = simulate(P, Effects(friction="off"), t_end=60 * tm, dt=tm / 8, torque=TR,
+                    speed=rpm * RPM)
+    summ = traj.summary(t_from=20 * tm)
+    assert summ["mesh_force_n"]["mean"] == pytest.approx(ideal, rel=1e-3)
+    w = traj.window(20 * tm)
+    sampled = float(traj["mesh_force"][w].mean())
+    assert abs(sampled / ideal - 1.0) > 5e-3  # the sample mean phase-locks
+    # extremes over each step: the least and the peak bracket every sample and the mean
+    f = summ["mesh_force_n"]
+    assert f["min"] <= traj["mesh_force"][w].min() and f["max"] >= traj["mesh_force"][w].max()
+    assert f["min"] < f["mean"] < f["max"]
+
+
+def test_mean_mesh_force_with_friction_matches_a_finely_sampled_run():
+    """With stick-slip friction the mean is Tr/rb1 less the friction moment's share (a few
+    tenths of a per cent at 467 r/min); the sweep's and the summary's means agree with the
+    mean of a run sampled every 2 us (about 1900 samples per mesh period) to 3e-4."""
+    rpm = 467.0
+    tm = _mesh_period(rpm)
+    rec = run_point(0, "speed_rpm", rpm, QUICK)
+    assert rec["status"] == "ok", rec["error"]
+    coarse = simulate(P, Effects(), t_end=60 * tm, dt=tm / 8, torque=TR, speed=rpm * RPM,
+                      rtol=QUICK.rtol)
+    fine = simulate(P, Effects(), t_end=60 * tm, dt=2e-6, torque=TR, speed=rpm * RPM,
+                    rtol=QUICK.rtol)
+    t_from = 60 * tm - 40 * tm
+    sampled_fine = float(fine["mesh_force"][fine.window(t_from)].mean())
+    mean = coarse.summary(t_from)["mesh_force_n"]["mean"]
+    assert mean == pytest.approx(sampled_fine, rel=3e-4)
+    assert rec["mesh_force_mean_kn"] * 1e3 == pytest.approx(sampled_fine, rel=3e-4)
+    share = mean / (TR / P.rb1) - 1.0
+    assert -6e-3 < share < 0.0  # friction takes a small share, as measured at this point
+
+
+def test_both_engines_integrate_the_mesh_force_alike():
+    """The reference (Gauss points on scipy's dense output) and the fast engine (Runge-Kutta
+    quadrature of its stages; slope-corrected trapezoid on the exact propagator) are two
+    independent quadratures of the same trajectory: per-step means agree to 1e-7."""
+    cases = [(Effects(), TR), (Effects(dof="torsional", stiffness="rectangular",
+                                       friction="off", backlash=5e-5), -500.0)]
+    for fx, torque in cases:
+        means = []
+        for name in ("reference", "fast"):
+            e = make_engine(P, fx, name, rtol=1e-9)
+            e.reset(0.0, abs(torque), 467 * RPM)
+            means.append([e.advance(k * 1e-3, torque, 467 * RPM).mesh_force_mean
+                          for k in range(1, 9)])
+        np.testing.assert_allclose(means[0], means[1], rtol=1e-7)
+
+
+def test_step_mean_is_the_integral_of_a_fine_record():
+    """One coarse step's mean equals the trapezoid mean of the same run recorded every 1 us
+    (no stiffness jumps inside: constant stiffness, through Runge-Kutta with stick-slip and
+    through the exact propagator), and with the time-varying stiffness it does not depend on
+    how the interval is cut into steps."""
+    cases = (Effects(stiffness="constant"), Effects(), Effects(dof="torsional",
+                                                                stiffness="constant",
+                                                                friction="off"))
+    for fx in cases:
+        means = []
+        for grid in (np.array([0.01, 0.012]), np.linspace(0.01, 0.012, 2001)):
+            e = FastEngine(P, fx, rtol=1e-10)
+            e.reset(0.0, TR, 467 * RPM)
+            e.advance(0.01, 3000.0, 467 * RPM)  # a torque step: the mesh rings
+            rec = e.run_grid(grid, TR, 467 * RPM)
+            means.append(float(np.mean(rec["mesh_force_mean"][1:])))
+        f = rec["mesh_force"]
+        assert means[0] == pytest.approx(means[1], rel=1e-8)
+        if fx.stiffness.kind == "constant":
+            assert means[0] == pytest.approx(np.mean(0.5 * (f[1:] + f[:-1])), rel=1e-6)
+
+
+# -- 2. the fast engine is the default --------------------------------------------------------
+def test_fast_engine_is_the_default_and_start_up_is_reported_apart(capsys):
+    assert isinstance(make_engine(P, Effects()), FastEngine)
+    traj = simulate(P, Effects(), t_end=0.005)
+    assert traj.meta["engine"] == "fast"
+    assert traj.meta["startup_s"] > 0 and traj.meta["wall_time_s"] > 0
+    assert main(["simulate", "--t-end", "0.005", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["engine"] == "fast" and out["startup_s"] > 0
+    assert out["wall_time_per_simulated_s"] == pytest.approx(out["wall_time_s"] / 0.005)
+
+
+# -- 3. back-flank contact is contact; points outside the model --------------------------------
+def test_back_flank_is_reported_as_contact_not_loss(capsys):
+    assert main(["simulate", "examples/scenes/torque_reversal_backlash.toml", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["contact_loss_ratio"] == 0.0
+    assert out["back_contact_ratio"] == 1.0
+    assert out["mesh_force_n"]["mean"] < -30e3  # the back flanks carry the load
+
+
+def test_negative_torque_without_backlash_is_invalid_not_ok():
+    res = run_sweep("torque", [-3900.0, 3900.0], QUICK.replace(kept_periods=8,
+                    transient_periods=8), scheduler="serial", retries=1, progress=False)
+    bad, good = res.records
+    assert bad["status"] == "invalid" and "backlash" in bad["error"]
+    assert bad["attempts"] == 1 and res.retried == 0
+    assert bad["poincare"] == [] and math.isnan(bad["dte_mean_um_sampled"])
+    assert good["status"] == "ok"
+
+
+# -- 4. standstill and user errors ------------------------------------------------------------
+def test_standstill_runs_fast_and_is_refused_clearly_by_the_reference(capsys):
+    assert main(["simulate", "--speed-rpm", "0", "--t-end", "0.01", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["stick_ratio"] == 1.0
+    assert out["mesh_force_n"]["mean"] == pytest.approx(TR / P.rb1, rel=2e-3)
+    rc = main(["simulate", "--speed-rpm", "0", "--t-end", "0.01", "--engine", "reference"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "standstill" in err and "fast" in err
+    # the reference runs standstill where its stick constraints are distinct
+    e = make_engine(P, Effects(sliding="full"), "reference", rtol=1e-8)
+    e.reset(0.0, TR, 0.0)
+    assert e.advance(1e-3, TR, 0.0).stick_fraction == 1.0
+
+
+def test_cli_output_paths_are_created_or_refused_before_the_run(tmp_path, capsys):
+    out, fig = tmp_path / "new" / "run.csv", tmp_path / "other" / "run.png"
+    assert main(["simulate", "--t-end", "0.002", "--out", str(out), "--plot", str(fig)]) == 0
+    assert out.is_file() and fig.is_file()
+    capsys.readouterr()
+    for argv in (["--plot", str(tmp_path / "run.xyz")], ["--out", str(tmp_path)]):
+        rc = main(["simulate", "--t-end", "0.002", *argv])
+        err = capsys.readouterr().err
+        assert rc == 2 and err.count("\n") == 1 and err.startswith("gearpair: error: ")
+
+
+def test_an_input_csv_column_no_input_uses_is_reported(tmp_path, capsys):
+    (tmp_path / "in.csv").write_text("time,torque,sped_rpm\n0,3900,100\n0.01,3900,100\n")
+    scene = tmp_path / "scene.toml"
+    scene.write_text('t_end = 0.002\n[inputs.csv]\nfile = "in.csv"\n')
+    with pytest.warns(SceneWarning, match=r"'sped_rpm'.*closest input name: 'speed_rpm'"):
+        load_scene(scene)
+    assert main(["simulate", str(scene), "--json"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("gearpair: warning: ") and "sped_rpm" in err
+    # mapped explicitly: the file's other columns are the user's business
+    scene.write_text('t_end = 0.002\n[inputs.csv]\nfile = "in.csv"\n'
+                     'columns = { time = "time", torque = "torque" }\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_scene(scene)

@@ -109,14 +109,27 @@ class PlainGearPair:
         self.dw_dxi = np.array([0.0, 0.0, 1.0 / d.rb1, 0.0, 0.0, -1.0 / d.rb2])
         self.nominal_at_a = self.speed * (d.ratio * (d.s1s2 - d.s1a) - d.s1a)
         self.dnominal_dxi = -self.speed * (1.0 + d.ratio)
+        self.c0, self.c1, self.c2, self.c3 = (np.ascontiguousarray(d.coef[:, j])
+                                              for j in range(4))
+        # y' = A y + b + (mesh spring and friction): A holds d q/dt = q', the supports and
+        # the mesh damper (it acts while the teeth touch), Eqs. (4)-(5)
+        gg = np.outer(G, G)
+        self.a_contact = np.zeros((12, 12))
+        self.a_contact[:6, 6:] = np.eye(6)
+        self.a_contact[6:, :6] = -d.minv[:, None] * np.diag(d.kb)
+        self.a_contact[6:, 6:] = -d.minv[:, None] * (np.diag(d.c) + d.cm * gg)
+        self.b = np.r_[np.zeros(6), d.minv * self.load]
+        self.mesh_dir = np.r_[np.zeros(6), -d.minv * G]  # y'' per newton of mesh force
+        self.fric_at_a = np.r_[np.zeros(6), d.minv * self.w_at_a]  # y'' per newton of friction
+        self.fric_dxi = np.r_[np.zeros(6), d.minv * self.dw_dxi]   # ... its change with xi
 
     # -- the model at one instant ------------------------------------------------------------
     def stiffness(self, xi: np.ndarray) -> np.ndarray:
         """Per-pair mesh stiffness (N/m) at positions ``xi`` from A (cubic spline)."""
         # positions stay in [0, L] within a segment; L itself falls on the last interval
         i = np.minimum((xi * (1.0 / self.h)).astype(np.intp), self.last)
-        c, x = self.d.coef[i], xi - self.d.knots[i]
-        return ((c[:, 3] * x + c[:, 2]) * x + c[:, 1]) * x + c[:, 0]
+        x = xi - self.d.knots[i]
+        return ((self.c3[i] * x + self.c2[i]) * x + self.c1[i]) * x + self.c0[i]
 
     def arms(self, xi: np.ndarray):
         """Friction directions w_j (Eq. (9)) and nominal sliding velocities (Eq. (12))."""
@@ -147,19 +160,17 @@ class PlainGearPair:
         return np.concatenate((y[6:], self.d.minv * self.free_forces(y[:6], y[6:])))
 
     def rhs_slip(self, t, y, seg, dirs):
-        """Every pair in contact slides (sign law or nominal direction): `contact_forces`
-        without what only the events need."""
-        q, qd = y[:6], y[6:]
+        """Every pair in contact slides (sign law or nominal direction): the linear part as
+        one matrix product, the mesh spring k(t) delta and the friction forces added."""
         xi = seg.xi0 + self.vs * (t - seg.t0)
         k = self.stiffness(xi)
-        delta = q[1] - q[4] + q[2] + q[5]
-        ddelta = qd[1] - qd[4] + qd[2] + qd[5]
-        f = self.load - self.d.c * qd - self.d.kb * q \
-            - (k.sum() * delta + self.d.cm * ddelta) * G
+        delta = y[1] - y[4] + y[2] + y[5]
+        out = self.a_contact @ y + self.b + (k.sum() * delta) * self.mesh_dir
         if self.friction != "off":
-            f += (k * (self.d.mu * abs(delta)) * dirs) @ (self.w_at_a
-                                                          + np.outer(xi, self.dw_dxi))
-        return np.concatenate((qd, self.d.minv * f))
+            # sum_j f_j w_j with w_j affine in xi_j: two terms, whatever the number of pairs
+            f = k * dirs * (self.d.mu * abs(delta))
+            out += f.sum() * self.fric_at_a + (f @ xi) * self.fric_dxi
+        return out
 
     def static_friction(self, f, w, stuck):
         """Static friction (N) of the stuck pairs holding d v_j/dt = 0 (Eqs. (15), (18),
@@ -177,6 +188,8 @@ class PlainGearPair:
 
     # -- events: positive while the state holds, falling through zero when it ends ----------
     def events(self, seg, state, dirs, stuck):
+        """Terminal event functions of a state: contact (delta) or separation (-delta), then
+        per pair in contact its stick margin (stuck) or d v (slipping in direction d)."""
         evs = []
         if state == "separated":
             evs.append(lambda t, y: -(G @ y[:6]))
@@ -335,6 +348,8 @@ class PlainGearPair:
 
     def record(self, seg, ts, ys) -> None:
         """DTE and mesh force at the grid points of one `solve_ivp` call (first one wins)."""
+        if len(ts) == 0:  # an event came before the first point asked for
+            return
         step = self.grid[1] - self.grid[0] if len(self.grid) > 1 else 1.0
         for t, y in zip(ts, ys.T, strict=True):
             k = int(round(t / step))

@@ -145,6 +145,8 @@ def test_c_host_rows(quick):
                 assert r[f"{key}{clk}_us"] > 0, (key, r)
             assert r[f"c_slave_own{clk}_us"] == pytest.approx(
                 r[f"c_gearpair{clk}_us"] - r[f"c_noop{clk}_us"] - r[f"engine{clk}_us"])
+            assert r[f"c_beyond_engine{clk}_us"] == pytest.approx(
+                r[f"c_gearpair{clk}_us"] - r[f"engine{clk}_us"])
         assert r["c_per_sim_s"] == pytest.approx(r["c_gearpair_us"] * 1e-6 / r["step"])
         # the no-op slave exits cleanly; GearPair's exit status is reported, not required
         assert r["exit_status"]["noop"] == 0 and "gearpair" in r["exit_status"]

@@ -30,8 +30,8 @@ def plain():
     sys.modules.pop(spec.name, None)
 
 
-def _fast(friction: str, t_end: float) -> dict:
-    traj = simulate(engine="fast", effects=Effects(friction=friction), t_end=t_end, dt=1e-4,
+def _fast(friction: str, t_end: float, dt: float = 1e-4) -> dict:
+    traj = simulate(engine="fast", effects=Effects(friction=friction), t_end=t_end, dt=dt,
                     rtol=1e-12)
     return {k: np.asarray(traj[k], dtype=float) for k in ("dte", "mesh_force")}
 
@@ -52,6 +52,17 @@ def test_agrees_with_the_fast_engine(plain, friction):
         assert model.n_events >= 3
     else:
         assert model.n_events == 0
+
+
+def test_switches_between_two_output_points(plain):
+    # recorded every 1 ms, the first stick (14.86-15.00 ms) starts and ends between two
+    # points: solve_ivp calls that return no output point at all
+    ref = _fast("stick_slip", 0.02, dt=1e-3)
+    model = plain.PlainGearPair("stick_slip", rtol=1e-10)
+    got = model.simulate(0.02, 1e-3)
+    assert model.n_events >= 3
+    err = np.max(np.abs(got["dte"] - ref["dte"])) / np.max(np.abs(ref["dte"]))
+    assert err < 1e-8, err
 
 
 def test_error_follows_the_tolerance(plain):

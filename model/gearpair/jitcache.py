@@ -281,9 +281,10 @@ _LOADED: dict = {}
 def load_engine() -> dict:
     """Load (or compile) every compiled entry point of the engine now, once per process.
 
-    Runs a default `FastEngine` through ``reset``, ``advance_values``, ``output_values``,
-    ``energy`` and ``run_grid`` for a few microseconds of model time, so that the first real
-    call does not compile. Returns a report (the same dict on later calls, with
+    Runs a default `FastEngine` through what its users call (``reset``, ``output_values``
+    of a fresh and of an advanced state, ``advance_values`` with and without a load speed,
+    ``restore``, ``energy``, ``run_grid``) for a few microseconds of model time, so that no
+    later call compiles. Returns a report (the same dict on later calls, with
     ``first`` False): ``source`` "shipped" (the code shipped with this package copy), "cache"
     (the user cache), "compiled" (at least one function compiled now and saved in the user
     cache) or "memory" (compiled, no disk cache usable); ``seconds`` it took; ``counts`` per
@@ -299,15 +300,22 @@ def load_engine() -> dict:
     fast = importlib.import_module(ENGINE_MODULE)
     eng = fast.FastEngine()
     eng.reset(torque=1000.0, speed=10.0)
+    eng.output_values()  # a fresh state's outputs (an FMU's initialization)
+    saved = eng.snapshot()
     eng.advance_values(2e-6, 1000.0, 10.0)
+    eng.output_values()
+    eng.advance_values(4e-6, 1000.0, 10.0, 10.0 / 2.4)  # a load speed (a driveline FMU)
+    eng.restore(saved)
     eng.output_values()
     eng.energy()
     eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0)
+    eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0, 10.0 / 2.4)
     # the exact propagator is compiled only for the engines that use it (`fast.loop.piece`)
     effects = importlib.import_module(_PACKAGE + ".effects")
     lti = fast.FastEngine(effects=effects.Effects(friction="off", stiffness="constant"))
     lti.reset(torque=1000.0, speed=10.0)
     lti.advance_values(2e-6, 1000.0, 10.0)
+    lti.output_values()
     lti.run_grid([lti.time, lti.time + 2e-6], 1000.0, 10.0)
     seconds = time.perf_counter() - t0
     counts = {k: STATS[k] - before[k] for k in STATS}

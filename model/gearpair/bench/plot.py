@@ -17,6 +17,12 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
         raise ImportError("--plot needs matplotlib: pip install 'gearpair[plot]'") from None
     fig = Figure(figsize=(13.0, 7.5), layout="constrained")
     ax = fig.subplots(2, len(REGIMES), sharex=True, sharey="row")
+    from matplotlib import colormaps
+
+    tab20 = colormaps["tab20"]
+    for a in ax.flat:  # a dozen lines: more colours than the default ten
+        a.set_prop_cycle(color=[tab20(i) for i in (0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 1, 3, 5,
+                                                   7, 9, 11)])
     markers = {"fast": "o", "fast dp5": "x", "RK45": "s", "DOP853": "D", "Radau": "^",
                "LSODA": "v", "FMU": "*", "plain": "P"}  # by the method, else its first word
     rows = result["work_precision"]
@@ -48,7 +54,7 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
             else:
                 a.set_xlabel(f"{'CPU' if clock == 'cpu' else 'wall'} time per simulated "
                              "second (s)")
-        ax[0, j].legend(fontsize="small")
+        ax[0, j].legend(fontsize="x-small", ncols=2)
     ax[0, 0].set_ylabel("DTE error (relative)")
     ax[1, 0].set_ylabel("mesh force error (relative)")
     m = result["machine"]

@@ -104,7 +104,7 @@ def _equal_accuracy(result: dict) -> list[str]:
     for suffix, what in (("", "wall"), ("_cpu", "CPU")):
         key = "wall_per_sim_s" if not suffix else "cpu_per_sim_s"
         out.append(f"Equal accuracy, {what} time: cheapest setting with DTE error <= "
-                   f"{TARGET_ERROR:g}, s/s:")
+                   f"{TARGET_ERROR:g} over the window and over its whole run, s/s:")
 
         def cell(e, mm, key=key, suffix=suffix):
             b = e["best" + suffix].get(mm)
@@ -207,15 +207,17 @@ def _c_host(result: dict) -> list[str]:
            f"master: set {', '.join(ch['inputs'])}; doStep; get {', '.join(ch['outputs'])} "
            f"({ch['regime']} at the default point, rtol {ch['rtol']:g}, best of {ch['blocks']}"
            f" blocks of {ch['n']} steps), us per step; engine: its own advance + outputs in "
-           "this process; slave's own = C host GearPair - no-op - engine:"]
+           "this process; slave's own = C host GearPair - no-op - engine (the no-op slave "
+           "runs on pythonfmu's own binary, GearPair on this project's C layer):"]
     for clk, what in (("", "wall"), ("_cpu", "CPU")):
         out.append(table(
             ["step s", f"C GearPair {what}", "C no-op", "fmpy GearPair", "fmpy no-op",
-             "engine", "slave's own (C)", "C host s/s"],
+             "engine", "C GearPair - engine", "slave's own (C)", "C host s/s"],
             [[_fmt(r["step"]), *[_fmt(r.get(f"{k}{clk}_us"), ".1f") for k in (
                 "c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine",
-                "c_slave_own")], _fmt(r.get("c_per_sim_s")) if not clk else "-"]
-             if not r["error"] else [_fmt(r["step"]), "failed", *["-"] * 6]
+                "c_beyond_engine", "c_slave_own")],
+              _fmt(r.get("c_per_sim_s")) if not clk else "-"]
+             if not r["error"] else [_fmt(r["step"]), "failed", *["-"] * 7]
              for r in ch["steps"]]))
     out += [f"  step {r['step']:g} failed: {r['error']}" for r in ch["steps"] if r["error"]]
     status = {k: v for r in ch["steps"] for k, v in r.get("exit_status", {}).items()}

@@ -242,11 +242,10 @@ def interface(gp=None) -> list[dict[str, Any]]:
         "static friction coefficient bounding the static friction in the stick test of "
         "Eq. (14) (mu stays the kinetic coefficient); 0: equal to mu (the paper); otherwise "
         "it must be >= mu, with friction_law 3 (stick_slip), or 2 (regularized) together with "
-        "stribeck_velocity; engine 1 (reference) only for now")
+        "stribeck_velocity")
     add("stribeck_velocity", "Real", "parameter", "fixed", "m/s", None, 0.0, STRIBECK_MAX, 0.0,
         "Stribeck velocity v_s: the sliding coefficient is mu + (mu_static - mu) "
-        "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3; engine 1 "
-        "(reference) only for now")
+        "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3")
     return out
 
 

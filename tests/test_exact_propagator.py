@@ -33,7 +33,7 @@ def _steps(engine, t_end, dt, torque):
 
 
 def test_uses_the_exact_propagator_only_where_coefficients_are_constant():
-    mi = lambda fx: FastEngine(None, fx)._mi  # noqa: E731
+    mi = lambda fx: FastEngine(None, fx)._md.flag  # noqa: E731
     from gearpair.fast import I_LTI
     assert mi(Effects(friction="off", stiffness="constant"))[I_LTI] == 1
     assert mi(Effects(friction="off", stiffness="rectangular", dof="torsional"))[I_LTI] == 1
@@ -41,7 +41,7 @@ def test_uses_the_exact_propagator_only_where_coefficients_are_constant():
                Effects(friction="regularized", stiffness="constant", sliding="full")):
         assert mi(fx)[I_LTI] == 0
     assert FastEngine(None, Effects(friction="off", stiffness="constant"),
-                      exact_lti=False)._mi[I_LTI] == 0
+                      exact_lti=False)._md.flag[I_LTI] == 0
 
 
 def test_matches_reference_through_separation_and_back_flank_impacts():

@@ -274,11 +274,11 @@ def test_snapshot_restore_returns_to_the_same_trajectory(compiled):
     e.advance(0.0145, TORQUE, SPEED)  # just before the first stick
     snap = e.snapshot()
     first = e.advance_values(0.0160, TORQUE, SPEED)
-    y1, ist1, stuck1 = e._y.copy(), e._ist.copy(), e._stuck.copy()
+    y1, ist1, stuck1 = e._hs.y.copy(), e._hs.mode.copy(), e._hs.stuck.copy()
     e.advance(0.02, TORQUE, 2 * SPEED)  # wander off
     e.restore(snap)
     assert e.time == 0.0145
     again = e.advance_values(0.0160, TORQUE, SPEED)
     assert again == first and first[0] > 0.0  # a stick inside the step
-    assert e._y.tolist() == y1.tolist() and e._ist.tolist() == ist1.tolist()
-    assert e._stuck.tolist() == stuck1.tolist()
+    assert e._hs.y.tolist() == y1.tolist() and e._hs.mode.tolist() == ist1.tolist()
+    assert e._hs.stuck.tolist() == stuck1.tolist()

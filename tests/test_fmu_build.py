@@ -315,10 +315,9 @@ def test_out_of_range_parameter_is_refused_when_set(md, unzipdir, start, words):
 
 @pytest.mark.parametrize("start, words", [
     # each value in range, together refused: below the kinetic mu, a law without static
-    # friction, the fast engine
+    # friction
     ({"mu_static": 0.01}, ("mu_static", "[mu, 1] = [0.02, 1]")),
     ({"mu_static": 0.04, "friction_law": 1, "engine": 1}, ("mu_static", "'nominal'")),
-    ({"mu_static": 0.04}, ("mu_static", "FMU: engine = 1")),
 ])
 def test_parameter_combination_is_refused_at_exit_initialization_mode(md, unzipdir, start,
                                                                       words):

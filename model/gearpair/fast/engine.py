@@ -1,0 +1,567 @@
+"""`FastEngine`: the `Engine` contract over the compiled functions, and the set-up of the
+records they take (`layout`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from ..effects import Effects
+from ..engine import Engine, Outputs, StepSummary, check_inputs
+from ..equations import U2, Model
+from ..params import GearParams, check_rtol
+from .layout import (
+    FRICTION_CODE,
+    I_BACK,
+    I_FRIC,
+    I_IX,
+    I_KIND,
+    I_LTI,
+    I_MAXEV,
+    I_METHOD,
+    I_NIX,
+    I_NP,
+    I_NSAMP,
+    I_NTAB,
+    I_SEP,
+    I_SLIDE,
+    I_TIE,
+    I_TORS,
+    I_VARY,
+    J_NEVTOT,
+    J_NPREV,
+    J_SEP,
+    KIND_CONSTANT,
+    KIND_CUBIC,
+    KIND_TABLE,
+    L_NSLOT,
+    L_SCRATCH,
+    N_IST,
+    N_MI,
+    N_MP,
+    N_O,
+    N_OUT,
+    N_PW,
+    N_Q,
+    N_REC,
+    N_SC,
+    N_ST,
+    N_Y,
+    NZ,
+    O_FINT,
+    O_FMAX,
+    O_FMIN,
+    O_NEV,
+    O_NREJ,
+    O_NSTEPS,
+    O_STATUS,
+    O_TFAIL,
+    P_BACK,
+    P_C,
+    P_CM,
+    P_DX,
+    P_INVDX,
+    P_IPER,
+    P_IRB1,
+    P_IRB2,
+    P_KB,
+    P_KMEAN,
+    P_L,
+    P_MAXSTEP,
+    P_MINV,
+    P_MU,
+    P_MUS,
+    P_PB,
+    P_PER,
+    P_RATIO,
+    P_RB1,
+    P_RB2,
+    P_RTOL,
+    P_S1A,
+    P_S1S2,
+    P_SPACING,
+    P_TTOL,
+    P_VEPS,
+    P_VS,
+    P_XIP,
+    R_FSTG,
+    S_COMP,
+    S_KM,
+    STATUS_EVENTS,
+    STATUS_STEP,
+    T_BACK,
+    T_H,
+    T_S,
+    T_SEP,
+    T_SPEED,
+    T_STICK,
+    T_T,
+    T_TORQUE,
+    Y_A,
+    Y_AD,
+    HybridState,
+    ModelData,
+    Work,
+)
+from .loop import advance_entry, eval_entry, outputs_entry, reset_entry, run_grid_entry
+from .tableaux import METHOD_CODE, RK_NK
+
+# typical magnitudes for the default absolute tolerance (as the reference)
+SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
+
+
+def integrated_components(torsional: bool, friction: bool, varying: bool) -> np.ndarray:
+    """Indices of the components of y that a Runge-Kutta step integrates.
+
+    A switched-off effect leaves components whose rate is identically zero, and they are
+    held: the error norm, the continuous extension and the event samples skip them. These
+    are x1, x2 and their rates without friction (nothing else pushes along the off-line of
+    action, so they stay at rest), all four support translations in the torsional model,
+    the friction work without friction, the parametric power with a constant mesh
+    stiffness, and always the load-shaft end's rate a' (held per step). Only the stage
+    sums (`rk.stage`, `events.hermite`) run over all N_Y components: there the held ones
+    add exact zeros in SIMD lanes, which costs less than skipping them through this list.
+    """
+    keep = [2, 5, 8, 11, 12, 13, Y_A]  # u1, u2, their rates, input work, damping loss, a
+    if not torsional:
+        keep += [1, 4, 7, 10]  # y1, y2 along the line of action
+        if friction:
+            keep += [0, 3, 6, 9]  # x1, x2: driven only by the friction forces
+    if friction:
+        keep.append(14)
+    if varying:
+        keep.append(15)
+    return np.array(sorted(keep), dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class FastOptions:
+    """Integrator options of `FastEngine` (keywords of its constructor).
+
+    Attributes
+    ----------
+    atol : absolute tolerance (all states); default ``rtol`` times typical magnitudes
+        (1e-5 m, 1e-3 m/s, 1 J), as the reference
+    max_step : largest step (s); default half the period of the highest slip-model mode
+    n_samples, sample_spacing : every accepted step is scanned for sign changes at
+        dense-output samples at most ``sample_spacing`` apart (default
+        ``max_step / (n_samples + 1)``: the spacing of the reference's 8 interior samples on
+        its longest step); short steps are checked at their end only
+    t_tol : time tolerance (s) of the event refinement (plus 8 ulp of t)
+    max_events : bound on switches per `advance` call; more raises RuntimeError (a stall)
+    exact_lti : with friction off and constant or rectangular stiffness the equations have
+        constant coefficients between switches; integrate them with the exact propagator
+        ``expm(A h)`` (`lti.piece_lti`) instead of Runge-Kutta. False keeps Runge-Kutta
+        (for comparison).
+    method : ``"dop853"`` (default) or ``"dp5"``, the Runge-Kutta pair (`tableaux`);
+        ``gearpair bench`` compares the two
+    """
+
+    atol: float | None = None
+    max_step: float | None = None
+    n_samples: int = 8
+    sample_spacing: float | None = None
+    t_tol: float = 1e-14
+    max_events: int = 100_000
+    exact_lti: bool = True
+    method: str = "dop853"
+
+    def __post_init__(self) -> None:
+        if self.method not in METHOD_CODE:
+            raise ValueError(f"method = {self.method!r} is not known; allowed "
+                             f"{', '.join(sorted(METHOD_CODE))}")
+        if not (1 <= int(self.n_samples) <= 1000):
+            raise ValueError(f"n_samples = {self.n_samples!r} is out of range; allowed "
+                             "[1, 1000]")
+
+
+def model_constants(m: Model, rtol: float, max_step: float, t_tol: float) -> np.ndarray:
+    """`ModelData.par` of the model (before the table spacing, `stiffness_tables`)."""
+    fx, g = m.effects, m.geom
+    mp = np.zeros(N_MP)
+    mp[P_MINV:P_MINV + 6] = m.minv
+    mp[P_C:P_C + 6] = m.c_diag
+    mp[P_KB:P_KB + 6] = m.kb_diag
+    mp[P_RB1], mp[P_RB2], mp[P_RATIO], mp[P_CM], mp[P_MU] = m.rb1, m.rb2, m.ratio, m.cm, m.mu
+    mp[P_VEPS] = fx.v_eps
+    mp[P_S1A], mp[P_S1S2], mp[P_PB] = g.s1a, g.s1s2, g.base_pitch
+    mp[P_L], mp[P_PER], mp[P_XIP] = g.path_length, g.period_length, g.xi_pitch
+    mp[P_KMEAN] = m.stiff.km_mean
+    mp[P_IRB1], mp[P_IRB2], mp[P_IPER] = 1.0 / m.rb1, 1.0 / m.rb2, 1.0 / g.period_length
+    mp[P_RTOL], mp[P_MAXSTEP], mp[P_TTOL] = rtol, max_step, float(t_tol)
+    mp[P_BACK] = 0.0 if fx.backlash is None else float(fx.backlash)
+    mp[P_MUS], mp[P_VS] = m.mu_static, m.stribeck_velocity
+    return mp
+
+
+def model_flags(m: Model, opts: FastOptions) -> np.ndarray:
+    """`ModelData.flag` of the model and options (before the table size)."""
+    fx, st = m.effects, m.stiff
+    mi = np.zeros(N_MI, dtype=np.int64)
+    mi[I_NP] = m.geom.n_pairs
+    mi[I_KIND] = KIND_CONSTANT if st.kind == "constant" else \
+        KIND_CUBIC if st.cubic is not None else KIND_TABLE
+    mi[I_VARY] = 0 if st.kind in ("constant", "rectangular") else 1
+    mi[I_SEP] = 1 if fx.separation else 0
+    mi[I_FRIC] = FRICTION_CODE[fx.friction]
+    mi[I_SLIDE] = 1 if fx.sliding == "full" else 0
+    mi[I_TIE] = 1 if fx.stick_tie == "paper" else 0
+    mi[I_NSAMP] = int(opts.n_samples)
+    mi[I_MAXEV] = int(opts.max_events)
+    mi[I_BACK] = 1 if fx.backlash is not None else 0
+    mi[I_TORS] = 1 if m.torsional else 0
+    # constant coefficients between switches: the exact propagator replaces Runge-Kutta
+    mi[I_LTI] = 1 if (fx.friction == "off" and st.kind in ("constant", "rectangular")
+                      and opts.exact_lti) else 0
+    mi[I_METHOD] = METHOD_CODE[opts.method]
+    ix = integrated_components(bool(m.torsional), fx.friction != "off", bool(mi[I_VARY]))
+    mi[I_NIX] = len(ix)
+    mi[I_IX:I_IX + len(ix)] = ix
+    return mi
+
+
+def stiffness_tables(m: Model, mp: np.ndarray, mi: np.ndarray) -> tuple:
+    """(xi_knots, k_coef, k_slope) of the stiffness law; sets the table spacing in ``mp``
+    and its size in ``mi``."""
+    st = m.stiff
+    tx = np.ascontiguousarray(st.xi, dtype=float)
+    if st.cubic is not None:  # 4 coefficients per interval; k_slope: the slope at its start
+        tk = np.ascontiguousarray(st.cubic, dtype=float).ravel()
+        tdk = np.ascontiguousarray(st.cubic[:, 1], dtype=float)
+    else:
+        tk = np.ascontiguousarray(st.k, dtype=float)
+        tdk = np.diff(tk) / np.diff(tx)
+    ntab = len(tx)
+    mi[I_NTAB] = ntab
+    mp[P_DX] = m.geom.path_length / (ntab - 1)
+    mp[P_INVDX] = 1.0 / mp[P_DX]
+    if np.max(np.abs(tx - mp[P_DX] * np.arange(ntab))) > 1e-9 * mp[P_DX]:
+        raise ValueError("FastEngine needs the stiffness table on a uniform grid from 0 "
+                         "to the path length (MeshStiffness.build makes one)")
+    return tx, tk, tdk
+
+
+def work_buffers(n: int) -> Work:
+    """The work buffers for ``n`` tracked pairs."""
+    lti_keys = np.zeros((L_NSLOT + 1, 4))
+    lti_keys[:L_NSLOT, 0] = -1.0  # empty slots
+    return Work(
+        active=np.zeros(n, dtype=np.int64), trial=np.zeros(n, dtype=np.int64),
+        bound_offs=np.zeros(3), bound_k=np.zeros(3, dtype=np.int64),
+        stages=np.zeros((RK_NK, N_Y)), dense=np.zeros((R_FSTG + 1, max(N_Y, n + 2, RK_NK))),
+        ytmp=np.zeros(N_Y), ynew=np.zeros(N_Y), g=np.zeros(n + 2), gprev=np.zeros(n + 2),
+        pair=np.zeros((N_PW, n)), scal=np.zeros(N_SC), solve=np.zeros((n, n + 2)),
+        lti_mats=np.zeros((L_SCRATCH + 12, NZ, NZ)), lti_keys=lti_keys,
+        lti_vecs=np.zeros((6, max(NZ, N_Y))), summary=np.zeros(N_OUT),
+        outputs=np.zeros(N_O))
+
+
+def state_buffer(n: int) -> tuple[np.ndarray, HybridState]:
+    """One float buffer and the `HybridState` of views into it (a rollback snapshot is one
+    copy; the integer parts are int64 views of float64 words)."""
+    cut = np.cumsum([0, N_Y, N_ST, N_IST, n, n, n])
+    buf = np.zeros(int(cut[-1]))
+    part = [buf[cut[i]:cut[i + 1]] for i in range(6)]
+    return buf, HybridState(y=part[0], clock=part[1], mode=part[2].view(np.int64),
+                            dirs=part[3], stuck=part[4].view(np.int64),
+                            prev_active=part[5].view(np.int64))
+
+
+class FastEngine(Engine):
+    """numba engine implementing the `Engine` contract with the reference's physics.
+
+    Parameters
+    ----------
+    params, effects : the gear pair and the effects to include
+    rtol : relative tolerance of the Runge-Kutta error control
+    **options : the integrator options of `FastOptions` (``atol``, ``max_step``,
+        ``n_samples``, ``sample_spacing``, ``t_tol``, ``max_events``, ``exact_lti``,
+        ``method``)
+    """
+
+    def __init__(self, params: GearParams | None = None, effects: Effects | None = None,
+                 rtol: float = 1e-8, **options) -> None:
+        opts = FastOptions(**options)
+        check_rtol(rtol)
+        m = self.model = Model.build(params, effects)
+        self.rtol = float(rtol)
+        self.atol = SCALE * rtol if opts.atol is None else np.full(N_Y, float(opts.atol))
+        max_step = opts.max_step
+        if max_step is None:
+            from ..modal import natural_frequencies
+
+            max_step = 0.5 / float(natural_frequencies(m, "slip")[-1])
+        self.max_step = float(max_step)
+        mp = model_constants(m, self.rtol, self.max_step, opts.t_tol)
+        self.sample_spacing = float(self.max_step / (opts.n_samples + 1)
+                                    if opts.sample_spacing is None else opts.sample_spacing)
+        mp[P_SPACING] = self.sample_spacing
+        mi = model_flags(m, opts)
+        self.integrated = mi[I_IX:I_IX + mi[I_NIX]].copy()  # what Runge-Kutta integrates
+        self._held_q = np.setdiff1d(np.arange(2 * N_Q), self.integrated)  # q, q' at rest
+        self.method = opts.method
+        self._md = ModelData(mp, mi, self.atol, *stiffness_tables(m, mp, mi))
+        n = m.geom.n_pairs
+        self._state, self._hs = state_buffer(n)
+        self._wk = work_buffers(n)
+        # the compiled entry points take plain tuples (typed faster per call than named)
+        self._args = (tuple(self._md), tuple(self._wk), tuple(self._hs))
+        # None compiles no exact propagator for an engine that does not use it (`loop.piece`)
+        self._lti = True if mi[I_LTI] else None
+        self._last = None
+        self._outputs: Outputs | None = None  # cache, valid until the state changes
+        self._o_fresh = False  # wk.outputs holds the outputs of the current state
+        self.reset()
+
+    # -- contract ----------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return float(self._hs.clock[T_T])
+
+    def reset(self, t0: float = 0.0, torque: float = 0.0, speed: float = 0.0,
+              static: bool = True) -> None:
+        check_inputs(torque, speed)
+        m, hs = self.model, self._hs
+        st, y = hs.clock, hs.y
+        st[:] = 0.0
+        st[T_T] = float(t0)
+        st[T_TORQUE], st[T_SPEED] = float(torque), float(speed)
+        y[:] = 0.0
+        active, _, _, _, k = m.contact(0.0)
+        if static and torque != 0.0:
+            y[:N_Q] = m.static_deflection(torque, float(k.sum()))
+        hs.prev_active[:len(active)] = active  # the set in contact at t0 (as the reference)
+        delta = y[1] - y[4] + y[2] + y[5]
+        hs.mode[:] = 0
+        hs.mode[J_SEP] = m.contact_code(delta)
+        hs.mode[J_NPREV] = len(active)
+        hs.dirs[:] = 1.0
+        hs.stuck[:] = 0
+        reset_entry(*self._args)
+        self._last = None
+        self._stale()
+
+    def get_state(self) -> dict:
+        hs = self._hs
+        st, mode = hs.clock, hs.mode
+        npv = int(mode[J_NPREV])
+        return {
+            "t": float(st[T_T]), "s": float(st[T_S]), "y": hs.y.copy(),
+            "torque": float(st[T_TORQUE]), "speed": float(st[T_SPEED]),
+            "separated": bool(mode[J_SEP]), "back": bool(mode[J_SEP] == 2),
+            "dirs": hs.dirs.copy(),
+            "stuck": hs.stuck.astype(bool), "t_stick": float(st[T_STICK]),
+            "t_sep": float(st[T_SEP]), "t_back": float(st[T_BACK]),
+            "n_events_total": int(mode[J_NEVTOT]),
+            "h": float(st[T_H]) if st[T_H] > 0 else None,
+            "prev_active": None if npv < 0 else [int(j) for j in hs.prev_active[:npv]],
+            "last": self._last,
+        }
+
+    def set_state(self, state: dict) -> None:
+        y = np.asarray(state["y"], dtype=float)
+        moving = [int(i) for i in self._held_q if y[i] != 0.0]
+        if moving:
+            raise ValueError(
+                f"state: y[{moving[0]}] = {y[moving[0]]!r}, but with these effects "
+                f"components {[int(i) for i in self._held_q]} of y (x1, y1, x2, y2 at "
+                "indices 0, 1, 3, 4 and their rates 6 + i) are not simulated and must be 0")
+        hs = self._hs
+        st, mode = hs.clock, hs.mode
+        st[T_T], st[T_S] = float(state["t"]), float(state["s"])
+        hs.y[:] = y
+        st[T_TORQUE], st[T_SPEED] = float(state["torque"]), float(state["speed"])
+        mode[J_SEP] = (2 if state.get("back") else 1) if state["separated"] else 0
+        hs.dirs[:] = np.asarray(state["dirs"], dtype=float)
+        hs.stuck[:] = np.asarray(state["stuck"], dtype=bool).astype(np.int64)
+        st[T_STICK], st[T_SEP] = float(state["t_stick"]), float(state["t_sep"])
+        st[T_BACK] = float(state.get("t_back", 0.0))
+        mode[J_NEVTOT] = int(state["n_events_total"])
+        h = state.get("h")
+        st[T_H] = float(h) if h else 0.0
+        prev = state.get("prev_active")
+        if prev is None:
+            mode[J_NPREV] = -1
+        else:
+            mode[J_NPREV] = len(prev)
+            hs.prev_active[:len(prev)] = np.asarray(prev, dtype=np.int64)
+        self._last = state.get("last")
+        self._stale()
+
+    def _stale(self) -> None:
+        """The state changed: both output caches (`output_values`, `outputs`) are stale."""
+        self._outputs = None
+        self._o_fresh = False
+
+    def snapshot(self) -> tuple:
+        """A cheap copy of the whole state for a rollback within this process (`restore`);
+        `get_state` is the portable, picklable form."""
+        return self._state.copy(), self._last
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a `snapshot` of this engine."""
+        self._state[:], self._last = snap
+        self._stale()
+
+    def advance(self, t_end: float, torque: float, speed: float,
+                load_speed: float | None = None) -> StepSummary:
+        check_inputs(torque, speed, load_speed)
+        t_start = self.time
+        f = self.advance_values(t_end, torque, speed, load_speed)
+        return StepSummary(t_start, float(t_end), *f)
+
+    def advance_values(self, t_end: float, torque: float, speed: float,
+                       load_speed: float | None = None) -> tuple:
+        """`advance` for a caller that has validated the inputs and reads plain numbers (the
+        FMU's doStep, where each microsecond counts): no input check, no dataclass.
+
+        Returns
+        -------
+        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps,
+        back_fraction, mesh_force_mean, mesh_force_min) of the step (`StepSummary`'s order);
+        `output_values` then has the outputs.
+        """
+        t_start = self.time
+        if not (t_end > t_start):
+            raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
+        st, mp = self._hs.clock, self._md.par
+        t_stick0, t_sep0, t_back0 = st[T_STICK], st[T_SEP], st[T_BACK]
+        self._hs.y[Y_AD] = 0.0 if load_speed is None else \
+            -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
+        out = self._wk.summary
+        self._stale()
+        advance_entry(*self._args, float(t_end), float(torque), float(speed), self._lti)
+        self._raise_failure()
+        self._o_fresh = True  # advance_entry left the outputs in wk.outputs
+        h = t_end - t_start
+        o = self._wk.outputs
+        self._last = (t_start, float(t_end))
+        return ((st[T_STICK] - t_stick0) / h, (st[T_SEP] - t_sep0) / h,
+                max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]),
+                (st[T_BACK] - t_back0) / h, float(out[O_FINT]) / h,
+                min(float(out[O_FMIN]), float(o[1])))
+
+    def _raise_failure(self) -> None:
+        out = self._wk.summary
+        status = int(out[O_STATUS])
+        if status == STATUS_EVENTS:
+            raise RuntimeError(
+                f"more than {int(self._md.flag[I_MAXEV])} contact switches in one step "
+                f"(t = {out[O_TFAIL]:.9g} s): the run stalls; see README 'Limits'")
+        if status == STATUS_STEP:
+            raise ArithmeticError(
+                f"Runge-Kutta step size underflow at t = {out[O_TFAIL]:.9g} s")
+
+    def _grid_inputs(self, grid, torque, speed, load_speed) -> tuple:
+        """Validated (grid, torque, speed, load-shaft end rate) arrays for `run_grid`."""
+        grid = np.ascontiguousarray(grid, dtype=float)
+        n = len(grid)
+        if n < 1 or abs(grid[0] - self.time) > 1e-12 * max(1.0, abs(self.time)):
+            raise ValueError(f"grid must start at the current time {self.time!r}")
+        if n > 1 and not np.all(np.diff(grid) > 0):
+            raise ValueError("grid must increase strictly")
+        T = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, float), (n - 1,)))
+        W = np.ascontiguousarray(np.broadcast_to(np.asarray(speed, float), (n - 1,)))
+        L = None if load_speed is None else np.broadcast_to(np.asarray(load_speed, float),
+                                                            (n - 1,))
+        ok = np.isfinite(T) & np.isfinite(W) & (np.abs(T) <= 1e6) & (np.abs(W) <= 2e4)
+        if L is not None:
+            ok &= np.isfinite(L) & (np.abs(L) <= 2e4)
+        if not np.all(ok):  # the same message as advance, for the first bad interval
+            i = int(np.argmin(ok))
+            check_inputs(T[i], W[i], None if L is None else L[i])
+        mp = self._md.par
+        yad = np.zeros(n - 1) if L is None else \
+            np.ascontiguousarray(-mp[P_RB2] * (L - W * mp[P_RATIO]))
+        return grid, T, W, yad
+
+    def run_grid(self, grid, torque, speed, load_speed=None) -> dict:
+        """Step through ``grid`` (s, from the current time) in one compiled call and record
+        at every point: what `results.simulate` gets from `advance` + `outputs` per point,
+        without the Python round trip (about 20 us) per point.
+
+        Parameters
+        ----------
+        grid : increasing times (s); ``grid[0]`` is the current time
+        torque, speed, load_speed : N.m, rad/s, rad/s per interval (``len(grid) - 1``
+            values, held from ``grid[i]`` to ``grid[i + 1]``); ``load_speed`` None as in
+            `advance`
+
+        Returns
+        -------
+        dict of arrays over ``grid``: the `Outputs` fields and the `StepSummary` figures
+        ``stick_fraction``, ``separation_fraction``, ``back_fraction``, ``mesh_force_mean``,
+        ``mesh_force_min``, ``mesh_force_max``, ``n_events`` of the interval ending there
+        (row 0: the start).
+        """
+        grid, T, W, yad = self._grid_inputs(grid, torque, speed, load_speed)
+        n = len(grid)
+        rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
+        self._stale()
+        filled = run_grid_entry(*self._args, grid, (T, W, yad), rec, self._lti)
+        if filled > 1:
+            self._last = (float(grid[filled - 2]), float(grid[filled - 1]))
+        if filled < n:
+            self._raise_failure()
+        names = [f.name for f in fields(Outputs)][1:]  # time first, then the N_O values
+        data = {k: rec[m] for m, k in enumerate(names)}
+        data["contact_state"] = data["contact_state"].astype(int)
+        for m, k in enumerate(("stick_fraction", "separation_fraction", "mesh_force_max",
+                               "n_events", "back_fraction", "mesh_force_mean",
+                               "mesh_force_min")):
+            data[k] = rec[N_O + m]
+        return data
+
+    # -- outputs -----------------------------------------------------------------------------
+    def _now(self) -> int:
+        return int(eval_entry(*self._args))
+
+    def output_values(self) -> np.ndarray:
+        """The `Outputs` values after ``time``, in field order, as the engine's own array
+        (read it before the next step; `outputs` is the dataclass)."""
+        if not self._o_fresh:
+            outputs_entry(*self._args)
+            self._o_fresh = True
+        return self._wk.outputs
+
+    def outputs(self) -> Outputs:
+        if self._outputs is None:
+            o = self.output_values()
+            self._outputs = Outputs(self.time, float(o[0]), float(o[1]),
+                                    float(o[2]), int(o[3]), float(o[4]), float(o[5]),
+                                    float(o[6]), float(o[7]), float(o[8]), float(o[9]))
+        return self._outputs
+
+    def energy(self) -> dict:
+        """Stored energy and the integrated power terms so far (J), as the reference."""
+        m = self.model
+        self._now()
+        sc, y = self._wk.scal, self._hs.y
+        q, qd = y[:N_Q], y[N_Q:2 * N_Q]
+        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q \
+            + 0.5 * sc[S_KM] * sc[S_COMP] ** 2 \
+            + 0.5 * m.p.kr2 * ((y[U2] - y[Y_A]) ** 2 - y[U2] ** 2)
+        return {"stored": float(stored), "input": float(y[12]), "damping": float(y[13]),
+                "friction": float(y[14]), "parametric": float(y[15])}
+
+    @property
+    def rejected_steps(self) -> int:
+        """Runge-Kutta step attempts the error test rejected in the last `advance` (work that
+        `StepSummary.n_steps` does not count)."""
+        return int(self._wk.summary[O_NREJ])
+
+    @property
+    def stick_time(self) -> float:
+        """Time spent with a pair stuck since reset (s)."""
+        return float(self._hs.clock[T_STICK])
+
+    @property
+    def separation_time(self) -> float:
+        """Time spent with no flank in contact since reset (s)."""
+        return float(self._hs.clock[T_SEP])
+
+    @property
+    def back_time(self) -> float:
+        """Time spent on the back flank since reset (s)."""
+        return float(self._hs.clock[T_BACK])

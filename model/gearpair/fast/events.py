@@ -1,0 +1,320 @@
+"""Dense output and event location (compiled).
+
+Unknown switches are found by sampling each accepted step at most ``sample_spacing`` apart
+(plus its end) and watching every event function for a fall through zero (DOP853 samples the
+cubic Hermite of the step ends first and re-scans on its full continuous extension when
+something falls); the earliest fall is refined on the interpolant with the Illinois variant
+of regula falsi until the bracket is shorter than ``t_tol`` plus 8 ulp of t; the located
+instant is the right end of the bracket (the state has already changed there).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jitcache import jit, jit_inline
+from .contact import (
+    evaluate,
+    event_values,
+    n_events,
+    pair_k,
+    pair_v,
+    pair_xi,
+    rhs,
+    sep_event_values,
+)
+from .layout import (
+    FR_STICK,
+    I_FRIC,
+    I_IX,
+    I_METHOD,
+    I_NIX,
+    J_REL,
+    N_Y,
+    O_FINT,
+    O_FMAX,
+    O_FMIN,
+    P_BACK,
+    P_RB1,
+    P_SPACING,
+    P_TTOL,
+    R_GEND,
+    R_GSAVE,
+    S_COMP,
+    S_KM,
+    T_REL,
+    T_S,
+)
+from .rk import EPS, stage
+from .switching import any_stuck, end_piece, switch
+from .tableaux import RK_C, RK_D, RK_ND, RK_NS, RK_NX
+
+
+@jit_inline
+def interp(md, R, nf, theta, out):
+    """Continuous extension of the accepted step at fraction ``theta``:
+    R0 + th (R1 + (1 - th) (R2 + th (R3 + ...))) over rows 1..nf; the components that are
+    not integrated (`integrated_components`) are left as they are in ``out``."""
+    mi = md.flag
+    th1 = 1.0 - theta
+    for k in range(mi[I_NIX]):
+        m = mi[I_IX + k]
+        acc = 0.0
+        for i in range(nf, 0, -1):
+            acc = (R[i, m] + acc) * (theta if i % 2 == 1 else th1)
+        out[m] = R[0, m] + acc
+
+
+@jit_inline
+def hermite(R, y, ynew, K, hh, nfs):
+    """Rows 0-3 of the continuous extension (`interp`): alone, the cubic Hermite of the step
+    ends (K[0] at the start, K[nfs] at the end); returns its row count."""
+    for m in range(N_Y):
+        dyn = ynew[m] - y[m]
+        R[0, m] = y[m]
+        R[1, m] = dyn
+        R[2, m] = hh * K[0, m] - dyn
+        R[3, m] = 2.0 * dyn - hh * (K[0, m] + K[nfs, m])
+    return 3
+
+
+@jit_inline
+def dense_rows(md, R, y, ynew, K, hh):
+    """Coefficients of the continuous extension of the step y -> ynew (for `interp`): the
+    Hermite rows plus rows of D; for DOP853 the extra stages must be in K already
+    (`extend`). Returns the row count."""
+    mi = md.flag
+    meth = mi[I_METHOD]
+    hermite(R, y, ynew, K, hh, RK_NS[meth] - 1)
+    nx = RK_NX[meth]
+    nd = RK_ND[meth]
+    for k in range(mi[I_NIX]):
+        m = mi[I_IX + k]
+        for r in range(nd):
+            acc = 0.0
+            for j in range(nx):
+                acc += RK_D[meth, r, j] * K[j, m]
+            R[4 + r, m] = hh * acc
+    return 3 + nd
+
+
+@jit
+def extend(md, wk, pc, hs, sp):
+    """Continuous extension of the accepted step ``sp`` into ``wk.dense`` (DOP853 first
+    evaluates its three extra stages); returns its row count for `interp`."""
+    meth = md.flag[I_METHOD]
+    K, hh = wk.stages, sp.hh
+    for stg in range(RK_NS[meth], RK_NX[meth]):
+        stage(meth, stg, hs.y, K, hh, wk.ytmp)
+        rhs(md, wk, pc, hs, sp.t + RK_C[meth, stg] * hh, sp.si, wk.ytmp, K[stg])
+    return dense_rows(md, wk.dense, hs.y, wk.ynew, K, hh)
+
+
+@jit
+def events_at(md, wk, pc, hs, t, yk, g):
+    """Event values at (t, yk) into g, with the full contact-state evaluation; returns the
+    mesh force."""
+    s = pc.s0 + md.par[P_RB1] * pc.speed * (t - pc.t0)
+    evaluate(md, wk, pc, s, s, yk, hs.dirs, hs.stuck)
+    event_values(md, wk, pc, hs.dirs, g)
+    return wk.scal[S_KM] * wk.scal[S_COMP]
+
+
+@jit_inline
+def events_light(md, wk, pc, hs, t, yk, g):
+    """`events_at` where no pair is stuck: the event functions (DTE, slip velocities) and
+    the mesh force are then plain expressions of the state, so the forces, the friction and
+    the accelerations are not evaluated (the samples inside a step need only these)."""
+    mp, sep, act = md.par, pc.cs, wk.active
+    if md.flag[I_FRIC] == FR_STICK and sep == 0 and any_stuck(md, hs.stuck):
+        return events_at(md, wk, pc, hs, t, yk, g)
+    s = pc.s0 + mp[P_RB1] * pc.speed * (t - pc.t0)
+    delta = yk[1] - yk[4] + yk[2] + yk[5]
+    n = sep_event_values(md, sep, delta, g)
+    if md.flag[I_FRIC] == FR_STICK and sep == 0:
+        for i in range(pc.nact):
+            g[n + i] = hs.dirs[act[i]] * pair_v(md, s, yk, pc.speed, act[i])
+    if sep == 1:
+        return 0.0
+    km = 0.0
+    for i in range(pc.nact):
+        xi = pair_xi(mp, s, act[i])
+        km += pair_k(md, xi, xi, pc.nact)
+    return km * (delta + mp[P_BACK] if sep == 2 else delta)
+
+
+@jit_inline
+def illinois_point(a, ga, b, gb):
+    """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b)."""
+    c = b - gb * (b - a) / (gb - ga)
+    if not (a < c < b):
+        c = 0.5 * (a + b)
+    return c
+
+
+@jit_inline
+def illinois(a, ga, b, gb, c, gc, side):
+    """Shrink the bracket with the value gc at c; halve the stale end's value when the same
+    end moves twice (what keeps regula falsi superlinear). Returns a, ga, b, gb, side."""
+    if gc <= 0.0:
+        if side == -1:
+            ga *= 0.5
+        return a, ga, c, gc, -1
+    if side == 1:
+        gb *= 0.5
+    return c, gc, b, gb, 1
+
+
+@jit_inline
+def falls(wk, ng):
+    """Whether an event function fell through zero between ``wk.gprev`` and ``wk.g``."""
+    for e in range(ng):
+        if wk.gprev[e] > 0.0 and wk.g[e] <= 0.0:
+            return True
+    return False
+
+
+@jit_inline
+def prepare_scan(md, wk, pc, hs, sp, nsub):
+    """Before sampling a step in ``nsub`` parts: keep the event values at its end (its last
+    stage was evaluated there) and build the extension to sample on (DOP853: the cheap
+    Hermite first). Returns (rows of the extension, cheap, mesh force at the end)."""
+    meth = md.flag[I_METHOD]
+    R, g, ns = wk.dense, wk.g, RK_NS[meth]
+    ng = n_events(md, pc.nact, pc.cs)
+    if nsub <= 1:
+        return 0, False, 0.0
+    event_values(md, wk, pc, hs.dirs, g)
+    fm_end = wk.scal[S_KM] * wk.scal[S_COMP]
+    for e in range(ng):
+        R[R_GEND, e] = g[e]
+    if RK_NX[meth] > ns:
+        for e in range(ng):
+            R[R_GSAVE, e] = wk.gprev[e]
+        return hermite(R, hs.y, wk.ynew, wk.stages, sp.hh, ns - 1), True, fm_end
+    return extend(md, wk, pc, hs, sp), False, fm_end
+
+
+@jit_inline
+def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
+    """Sample the step at ks / nsub on the extension (rows ``nf``); track the peak mesh
+    force. Returns (hit, theta of the last sample before the fall, theta of the fall)."""
+    g, R, ng = wk.g, wk.dense, n_events(md, pc.nact, pc.cs)
+    summ = wk.summary
+    th_prev = 0.0
+    for ks in range(1, nsub + 1):
+        if ks == nsub:
+            th = 1.0
+            if nsub == 1:
+                event_values(md, wk, pc, hs.dirs, g)
+                fm = wk.scal[S_KM] * wk.scal[S_COMP]
+            else:
+                for e in range(ng):
+                    g[e] = R[R_GEND, e]
+                fm = fm_end
+        else:
+            th = ks / nsub
+            interp(md, R, nf, th, wk.ytmp)
+            fm = events_light(md, wk, pc, hs, sp.t + th * sp.hh, wk.ytmp, g)
+        if fm > summ[O_FMAX]:
+            summ[O_FMAX] = fm
+        if fm < summ[O_FMIN]:
+            summ[O_FMIN] = fm
+        if falls(wk, ng):
+            return True, th_prev, th
+        for e in range(ng):
+            wk.gprev[e] = g[e]
+        th_prev = th
+    return False, th_prev, 1.0
+
+
+@jit_inline
+def scan_step(md, wk, pc, hs, sp):
+    """Scan the accepted step for falls through zero, samples at most `spacing` apart.
+
+    The continuous extension is needed only to sample inside the step. DOP853's costs three
+    more stages, so its samples are first taken on the cubic Hermite of the step ends; a
+    fall seen there is re-scanned on the full extension (the end values are exact either
+    way, so a single crossing is always caught). Returns (hit, rows of the extension, theta
+    before the fall, theta of the fall).
+    """
+    nsub = int(math.ceil(sp.hh / md.par[P_SPACING] * (1.0 - 1e-12)))
+    if nsub < 1:
+        nsub = 1
+    nf, cheap, fm_end = prepare_scan(md, wk, pc, hs, sp, nsub)
+    ng = n_events(md, pc.nact, pc.cs)
+    while True:
+        hit, th_prev, th_hit = scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end)
+        if not (hit and cheap):
+            break
+        nf = extend(md, wk, pc, hs, sp)
+        cheap = False
+        for e in range(ng):
+            wk.gprev[e] = wk.dense[R_GSAVE, e]
+    if hit and nsub == 1:
+        nf = extend(md, wk, pc, hs, sp)
+    return hit, nf, th_prev, th_hit
+
+
+@jit
+def refine(md, wk, pc, hs, sp, nf, e, bracket):
+    """Illinois on the interpolant for event function e over the bracket (theta before,
+    theta after its fall); returns the right end of the final bracket."""
+    a, b = bracket
+    ga, gb = wk.gprev[e], wk.g[e]
+    tol_th = (md.par[P_TTOL] + 8.0 * EPS * abs(sp.t)) / sp.hh
+    side = np.int64(0)
+    for _it in range(200):
+        if b - a <= tol_th:
+            break
+        c = illinois_point(a, ga, b, gb)
+        interp(md, wk.dense, nf, c, wk.ytmp)
+        events_at(md, wk, pc, hs, sp.t + c * sp.hh, wk.ytmp, wk.ynew)
+        a, ga, b, gb, side = illinois(a, ga, b, gb, c, wk.ynew[e], side)
+    return b
+
+
+# Gauss-Legendre nodes and weights on [0, 1] (3 points, exact to degree 5): the mesh force
+# integral over a step cut short by an event, on its continuous extension
+GL3_X = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
+GL3_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
+
+
+@jit
+def force_integral(md, wk, pc, hs, sp, nf, th):
+    """Mean mesh force over the fraction ``th`` of step ``sp`` up to a switch: Gauss-Legendre
+    on the continuous extension (the stage quadrature covers whole steps only)."""
+    fi = 0.0
+    for gi in range(3):
+        interp(md, wk.dense, nf, GL3_X[gi] * th, wk.ytmp)
+        fi += GL3_W[gi] * events_at(md, wk, pc, hs, sp.t + GL3_X[gi] * th * sp.hh, wk.ytmp,
+                                    wk.ynew)
+    return fi
+
+
+@jit
+def locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit):
+    """Refine every falling function on the interpolant; at the earliest, move the state
+    there, end the piece and switch."""
+    best_th = th_hit
+    best_e = np.int64(-1)
+    for e in range(n_events(md, pc.nact, pc.cs)):
+        if not (wk.gprev[e] > 0.0 and wk.g[e] <= 0.0):
+            continue
+        b = refine(md, wk, pc, hs, sp, nf, e, (th_prev, th_hit))
+        if best_e < 0 or b < best_th:
+            best_th, best_e = b, e
+    te = sp.t + best_th * sp.hh
+    if best_th >= 1.0:
+        te = sp.tn
+    wk.summary[O_FINT] += force_integral(md, wk, pc, hs, sp, nf, best_th) * (te - sp.t)
+    interp(md, wk.dense, nf, best_th, wk.ytmp)
+    for m in range(N_Y):
+        hs.y[m] = wk.ytmp[m]
+    end_piece(md, pc, hs, te)
+    hs.mode[J_REL] = 0
+    switch(md, wk, pc, hs, best_e, hs.clock[T_S])
+    if hs.mode[J_REL] != 0:
+        hs.clock[T_REL] = te

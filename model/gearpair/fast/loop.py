@@ -1,0 +1,501 @@
+"""The segment and advance loop (compiled): `ReferenceEngine.advance` in numba.
+
+*Known* discontinuities (a pair entering or leaving the path of contact; the pitch point for
+the nominal friction law) are segment boundaries computed from the mesh travel
+``s = rb1 * speed * t``; the stored mesh energy that jumps there is booked as parametric
+work. Inside a segment, pieces of one contact state are integrated (`piece`: Runge-Kutta,
+or `lti.piece_lti`) up to the first switch, which is applied before the next piece.
+
+The entry points called from Python (``*_entry``) take the records as plain tuples, which
+numba types faster per call than named ones, and name them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..engine import CONTACT_BACK, CONTACT_SEPARATED, CONTACT_SLIP, CONTACT_STICK
+from ..jitcache import jit, jit_inline
+from .contact import (
+    active_at,
+    evaluate,
+    n_events,
+    n_sep_events,
+    next_knot_dt,
+    pair_k,
+    pair_xi,
+    param_rate,
+)
+from .events import events_at, locate_and_switch, scan_step
+from .layout import (
+    FR_NOMINAL,
+    FR_STICK,
+    I_FRIC,
+    I_KIND,
+    I_LTI,
+    I_MAXEV,
+    I_METHOD,
+    I_NP,
+    J_NEVTOT,
+    J_NPREV,
+    J_REL,
+    J_SEP,
+    KIND_CONSTANT,
+    KIND_TABLE,
+    N_O,
+    N_OUT,
+    N_Y,
+    O_FINT,
+    O_FMAX,
+    O_FMIN,
+    O_NEV,
+    O_NSTEPS,
+    O_STATUS,
+    O_TFAIL,
+    P_C,
+    P_CM,
+    P_KB,
+    P_L,
+    P_PB,
+    P_RATIO,
+    P_RB1,
+    P_RB2,
+    P_XIP,
+    R_FSTG,
+    S_COMP,
+    S_DDELTA,
+    S_DELTA,
+    S_KM,
+    S_THETA,
+    STATUS_EVENTS,
+    STATUS_OK,
+    STATUS_STEP,
+    T_BACK,
+    T_H,
+    T_REL,
+    T_S,
+    T_SEP,
+    T_SPEED,
+    T_STICK,
+    T_T,
+    T_TORQUE,
+    W_F,
+    W_S1M,
+    W_V,
+    W_XI,
+    Y_A,
+    Y_AD,
+    HybridState,
+    ModelData,
+    Piece,
+    Work,
+)
+from .lti import piece_lti
+from .rk import first_step, try_step
+from .switching import end_piece, settle, speed_change, switch
+from .tableaux import RK_A, RK_NS
+
+
+@jit_inline
+def start_checks(md, wk, pc, hs):
+    """Events at the start of a piece, and the switches due there; returns 1 after one.
+
+    A known boundary can invalidate a stick at once (the entering pair takes load, so
+    mu f_mesh drops below the static friction): release it before integrating.
+    """
+    st, stuck, act, gprev = hs.clock, hs.stuck, wk.active, wk.gprev
+    fm = events_at(md, wk, pc, hs, pc.t0, hs.y, gprev)
+    if fm > wk.summary[O_FMAX]:
+        wk.summary[O_FMAX] = fm
+    if fm < wk.summary[O_FMIN]:
+        wk.summary[O_FMIN] = fm
+    e0 = n_sep_events(md, pc.cs)
+    retest = False
+    for e in range(e0, n_events(md, pc.nact, pc.cs)):
+        j = act[e - e0]
+        if stuck[j] != 0 and gprev[e] < 0.0:
+            switch(md, wk, pc, hs, e, pc.s0)
+            st[T_REL] = pc.t0
+            return 1
+        if stuck[j] == 0 and gprev[e] == 0.0 and not (
+                hs.mode[J_REL] == j + 1 and st[T_REL] == pc.t0):
+            # A slipping pair exactly at v = 0 (a start at rest, standstill): no fall through
+            # zero will ever be seen, so apply Eq. (14) now. If it cannot stick it keeps the
+            # direction the dynamics carry v to, and integration goes on.
+            switch(md, wk, pc, hs, e, pc.s0)
+            if stuck[j] != 0:
+                return 1
+            retest = True
+    if retest:
+        events_at(md, wk, pc, hs, pc.t0, hs.y, gprev)
+    return 0
+
+
+@jit_inline
+def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
+    """Take the accepted step ``sp`` (FSAL: its last stage is the next first); at a knot,
+    find the next one. Returns (t, t_knot)."""
+    y, K, R = hs.y, wk.stages, wk.dense
+    meth = md.flag[I_METHOD]
+    ns = RK_NS[meth]
+    fi = 0.0
+    for j in range(ns - 1):  # the weights b: the last row of A (first same as last)
+        fi += RK_A[meth, ns - 1, j] * R[R_FSTG, j]
+    wk.summary[O_FINT] += sp.hh * fi
+    R[R_FSTG, 0] = R[R_FSTG, ns - 1]
+    for m in range(N_Y):
+        y[m] = wk.ynew[m]
+        K[0, m] = K[ns - 1, m]
+    t = sp.tn
+    if sp.last:
+        end_piece(md, pc, hs, tb)
+    elif sp.at_knot:
+        v1 = md.par[P_RB1] * pc.speed
+        t_knot = t + next_knot_dt(md, pc.s0 + v1 * (t - pc.t0), pc.speed, wk.active, pc.nact)
+        if md.flag[I_KIND] == KIND_TABLE:
+            # next table interval: the parametric power changes its slope there (a
+            # spline's slope is continuous at its knots)
+            si = pc.s0 + v1 * (t + 0.5 * min(h, t_knot - t, tb - t) - pc.t0)
+            K[0, 15] = param_rate(md, wk, pc, si, y)
+    return t, t_knot
+
+
+@jit
+def piece(md, wk, hs, nact, tb, lti):
+    """Integrate one contact state from clock[T_T] towards tb; stop at the first switch.
+
+    ``lti``: None for an engine without the exact propagator (numba then prunes its branch,
+    so the propagator is compiled only for engines that use it), else True (flag I_LTI).
+    Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
+    """
+    st = hs.clock
+    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
+    if lti is not None:  # no friction: only the separation events, set up there
+        return piece_lti(md, wk, pc, hs, tb)
+    if start_checks(md, wk, pc, hs) != 0:
+        return 1
+    h, t_knot = first_step(md, wk, pc, hs, tb)
+    t = pc.t0
+    while True:
+        status, h, t_knot, sp = try_step(md, wk, pc, hs, t, h, t_knot, tb)
+        if status <= 0:
+            return status
+        wk.summary[O_NSTEPS] += 1.0
+        st[T_H] = h
+        hit, nf, th_prev, th_hit = scan_step(md, wk, pc, hs, sp)
+        if hit:
+            locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit)
+            return 1
+        t, t_knot = accept_step(md, wk, pc, hs, sp, h, t_knot, tb)
+        if sp.last:
+            return 0
+
+
+@jit
+def release_departed(md, wk, hs, nact):
+    """Pairs that left contact are no longer stuck."""
+    for j in range(md.flag[I_NP]):
+        inside = False
+        for i in range(nact):
+            if wk.active[i] == j:
+                inside = True
+        if not inside:
+            hs.stuck[j] = 0
+
+
+@jit
+def book_pair_change(md, wk, hs, nact):
+    """Stored mesh energy jumps when a pair enters or leaves: book it as parametric (the
+    constant law keeps its total whichever pairs are in mesh)."""
+    st, y, sc = hs.clock, hs.y, wk.scal
+    nprev = hs.mode[J_NPREV]
+    km_before = 0.0
+    for i in range(nprev):
+        xi = pair_xi(md.par, st[T_S], hs.prev_active[i])
+        km_before += pair_k(md, xi, xi, nprev)
+    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
+    evaluate(md, wk, pc, st[T_S], st[T_S], y, hs.dirs, hs.stuck)
+    y[15] += 0.5 * (sc[S_KM] - km_before) * sc[S_COMP] ** 2
+
+
+@jit_inline
+def segment_start(md, wk, hs, tb):
+    """The pair set of the segment ending at tb, and what changes with it; returns its size."""
+    st = hs.clock
+    speed = st[T_SPEED]
+    s_mid = st[T_S] + md.par[P_RB1] * speed * (0.5 * (st[T_T] + tb) - st[T_T])
+    nudge = 1e-9 * md.par[P_PB]
+    if abs(s_mid - st[T_S]) < nudge and speed != 0.0:
+        # a (near) zero-length segment sits on a boundary: take the set after it, so a step
+        # ending on a pair entry reports the new set whichever side rounding put it
+        s_mid = st[T_S] + (nudge if speed > 0.0 else -nudge)
+    nact = active_at(md, s_mid, wk.active)
+    nprev = hs.mode[J_NPREV]
+    if nprev >= 0:
+        release_departed(md, wk, hs, nact)
+    settle(md, hs, wk.active, nact, st[T_S], speed, hs.mode[J_SEP])
+    if nprev >= 0 and md.flag[I_KIND] != KIND_CONSTANT:
+        book_pair_change(md, wk, hs, nact)
+    return nact
+
+
+@jit_inline
+def segment(md, wk, hs, tb, lti):
+    """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
+    nact = segment_start(md, wk, hs, tb)
+    summ = wk.summary
+    while hs.clock[T_T] < tb:
+        r = piece(md, wk, hs, nact, tb, lti)
+        if r < 0:
+            summ[O_STATUS] = STATUS_STEP
+            return
+        summ[O_NEV] += r
+        if summ[O_NEV] > md.flag[I_MAXEV]:
+            summ[O_STATUS] = STATUS_EVENTS
+            summ[O_TFAIL] = hs.clock[T_T]
+            return
+    for i in range(nact):
+        hs.prev_active[i] = wk.active[i]
+    hs.mode[J_NPREV] = nact
+
+
+@jit_inline
+def current_active(md, wk, hs):
+    """The pairs of the last segment (a state on a boundary keeps its set), else the set at
+    the current mesh travel, into wk.active; returns their number."""
+    npv = hs.mode[J_NPREV]
+    if npv >= 0:
+        for i in range(npv):
+            wk.active[i] = hs.prev_active[i]
+        return npv
+    return active_at(md, hs.clock[T_S], wk.active)
+
+
+@jit_inline
+def first_boundaries(md, wk, hs):
+    """Offsets of the known boundaries in a base pitch (pair entry, pair exit, the pitch
+    point for nominal friction) and the index of the next one of each kind ahead of the
+    current mesh travel; returns how many kinds there are."""
+    mp, mi, offs, kcur = md.par, md.flag, wk.bound_offs, wk.bound_k
+    speed, s_start, pb = hs.clock[T_SPEED], hs.clock[T_S], md.par[P_PB]
+    noff = 3 if mi[I_FRIC] == FR_NOMINAL else 2
+    if mi[I_LTI] != 0 and mi[I_KIND] == KIND_CONSTANT:
+        noff = 0  # no friction and the same total stiffness whichever pairs are in mesh
+    offs[0] = 0.0
+    offs[1] = np.fmod(mp[P_L], pb)
+    offs[2] = np.fmod(mp[P_XIP], pb)
+    if speed != 0.0:
+        for i in range(noff):
+            if speed > 0.0:
+                k = math.floor((s_start - offs[i]) / pb)
+                while k * pb + offs[i] <= s_start:
+                    k += 1
+            else:
+                k = math.ceil((s_start - offs[i]) / pb)
+                while k * pb + offs[i] >= s_start:
+                    k -= 1
+            kcur[i] = k
+    return noff
+
+
+@jit_inline
+def next_boundary(md, wk, hs, noff, span, last_b):
+    """The end of the next segment: the next known boundary before the end of the step
+    (``span``: t and s at the step's start, its end t_end and the travel limit s_lim).
+
+    Returns (tb, its kind or -1 at t_end, the boundary's travel, repeat): repeat when the
+    boundary of one kind coincides with the last one (skip it).
+    """
+    t_start, s_start, t_end, s_lim = span
+    speed = hs.clock[T_SPEED]
+    if speed == 0.0:
+        return t_end, -1, last_b, False
+    pb, offs, kcur = md.par[P_PB], wk.bound_offs, wk.bound_k
+    fwd = speed > 0.0
+    ib = -1
+    bb = 0.0
+    for i in range(noff):
+        b = kcur[i] * pb + offs[i]
+        if ib < 0 or (fwd and b < bb) or ((not fwd) and b > bb):
+            ib, bb = i, b
+    if not ((fwd and bb < s_lim) or ((not fwd) and bb > s_lim)):
+        return t_end, -1, last_b, False
+    kcur[ib] += 1 if fwd else -1
+    if bb == last_b:
+        return t_end, ib, last_b, True
+    tb = t_start + (bb - s_start) / (md.par[P_RB1] * speed)
+    tb = min(max(tb, hs.clock[T_T]), t_end)
+    if ib < 0:
+        tb = t_end
+    return tb, ib, bb, False
+
+
+@jit
+def advance(md, wk, hs, t_end, torque, speed, lti):
+    """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
+    st, summ = hs.clock, wk.summary
+    for i in range(N_OUT):
+        summ[i] = 0.0
+    summ[O_FMAX] = -np.inf
+    summ[O_FMIN] = np.inf
+    if speed != st[T_SPEED] and md.flag[I_FRIC] == FR_STICK and hs.mode[J_SEP] == 0:
+        nact = current_active(md, wk, hs)
+        speed_change(md, wk, hs, nact, torque, speed, t_end - st[T_T])
+    st[T_TORQUE] = torque
+    st[T_SPEED] = speed
+    t_start, s_start = st[T_T], st[T_S]
+    v1 = md.par[P_RB1] * speed
+    noff = first_boundaries(md, wk, hs)
+    s_end = s_start + v1 * (t_end - t_start)
+    # boundaries a rounding error past the end of the step count as inside it (see segment)
+    s_tol = abs(v1) * 16.0 * 2.220446049250313e-16 * max(1.0, abs(t_end))
+    s_lim = s_end + s_tol if speed > 0.0 else s_end - s_tol
+    last_b = np.nan
+    while True:
+        tb, ib, last_b, repeat = next_boundary(md, wk, hs, noff,
+                                               (t_start, s_start, t_end, s_lim), last_b)
+        if repeat:
+            continue
+        segment(md, wk, hs, tb, lti)
+        if summ[O_STATUS] != STATUS_OK:
+            return
+        if ib < 0:
+            break
+    st[T_T] = t_end
+    hs.mode[J_NEVTOT] += int(summ[O_NEV])
+
+
+@jit_inline
+def eval_now(md, wk, hs):
+    """Evaluate at the current state (active set of the last segment); returns nact."""
+    st = hs.clock
+    nact = current_active(md, wk, hs)
+    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
+    evaluate(md, wk, pc, st[T_S], st[T_S], hs.y, hs.dirs, hs.stuck)
+    return nact
+
+
+@jit_inline
+def contact_state(wk, hs, nact):
+    """The `Outputs.contact_state` code of the current state."""
+    cs = hs.mode[J_SEP]
+    if cs == 2:
+        return CONTACT_BACK
+    if cs == 1:
+        return CONTACT_SEPARATED
+    state = CONTACT_SLIP
+    for i in range(nact):
+        if hs.stuck[wk.active[i]] != 0:
+            state = CONTACT_STICK
+    return state
+
+
+@jit
+def outputs_now(md, wk, hs):
+    """`Outputs` at the current state into ``wk.outputs`` (compiled: the FMU reads them
+    every step)."""
+    nact = eval_now(md, wk, hs)
+    mp, pw, sc, y, o = md.par, wk.pair, wk.scal, hs.y, wk.outputs
+    rb1, rb2 = mp[P_RB1], mp[P_RB2]
+    mesh = sc[S_KM] * sc[S_COMP]
+    fr = 0.0
+    fm = 0.0
+    i_near = 0
+    best = np.inf
+    for i in range(nact):
+        fr += pw[W_F, i]
+        fm += pw[W_F, i] * pw[W_S1M, i]
+        d = abs(pw[W_XI, i] - mp[P_XIP])
+        if d < best:
+            best, i_near = d, i
+    damp = sc[S_THETA] * mp[P_CM] * sc[S_DDELTA]
+    speed = hs.clock[T_SPEED]
+    o[0] = sc[S_DELTA]
+    o[1] = mesh
+    o[2] = fr
+    o[3] = contact_state(wk, hs, nact)
+    o[4] = -rb2 * (mp[P_KB + 5] * (y[5] - y[Y_A]) + mp[P_C + 5] * (y[11] - y[Y_AD]))
+    o[5] = rb1 * (mesh + damp) - fm
+    o[6] = hs.clock[T_TORQUE] - rb1 * (mp[P_KB + 2] * y[2] + mp[P_C + 2] * y[8])
+    o[7] = speed + y[8] / rb1
+    o[8] = speed * mp[P_RATIO] - y[11] / rb2
+    o[9] = pw[W_V, i_near] if nact > 0 else 0.0
+
+
+@jit_inline
+def run_grid(md, wk, hs, grid, inputs, rec, lti):
+    """`advance` to every point of ``grid`` (``inputs``: torque, speed and load-shaft end
+    rate of interval i, held from grid[i]) and record the outputs and step figures there,
+    without a return to Python per point.
+
+    Returns the number of rows filled; fewer than ``len(grid)`` means the step into the next
+    row failed (``wk.summary`` holds why).
+    """
+    st, y, o, summ = hs.clock, hs.y, wk.outputs, wk.summary
+    torque, speed, yad = inputs
+    n = grid.shape[0]
+    outputs_now(md, wk, hs)
+    for m in range(N_O):
+        rec[m, 0] = o[m]
+    rec[N_O + 2, 0] = o[1]
+    rec[N_O + 5, 0] = o[1]
+    rec[N_O + 6, 0] = o[1]
+    for i in range(1, n):
+        t0, stick0, sep0, back0 = st[T_T], st[T_STICK], st[T_SEP], st[T_BACK]
+        y[Y_AD] = yad[i - 1]
+        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1], lti)
+        if summ[O_STATUS] != STATUS_OK:
+            return i
+        outputs_now(md, wk, hs)
+        h = grid[i] - t0
+        for m in range(N_O):
+            rec[m, i] = o[m]
+        rec[N_O, i] = (st[T_STICK] - stick0) / h
+        rec[N_O + 1, i] = (st[T_SEP] - sep0) / h
+        rec[N_O + 2, i] = max(summ[O_FMAX], o[1])
+        rec[N_O + 3, i] = summ[O_NEV]
+        rec[N_O + 4, i] = (st[T_BACK] - back0) / h
+        rec[N_O + 5, i] = summ[O_FINT] / h
+        rec[N_O + 6, i] = min(summ[O_FMIN], o[1])
+    return n
+
+
+@jit
+def reset_settle(md, wk, hs):
+    """Slip directions of the pairs in contact at a reset state."""
+    st = hs.clock
+    nact = active_at(md, st[T_S], wk.active)
+    settle(md, hs, wk.active, nact, st[T_S], st[T_SPEED], hs.mode[J_SEP])
+
+
+# -- entry points from Python: plain tuples in, named records inside ------------------------
+@jit
+def advance_entry(md, wk, hs, t_end, torque, speed, lti):
+    """`advance`, then the outputs at the new state into wk.outputs unless it failed (the
+    FMU reads them every step: one call from Python instead of two)."""
+    m, w, h = ModelData(*md), Work(*wk), HybridState(*hs)
+    advance(m, w, h, t_end, torque, speed, lti)
+    if w.summary[O_STATUS] == STATUS_OK:
+        outputs_now(m, w, h)
+
+
+@jit
+def run_grid_entry(md, wk, hs, grid, inputs, rec, lti):
+    return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, inputs, rec, lti)
+
+
+@jit
+def outputs_entry(md, wk, hs):
+    outputs_now(ModelData(*md), Work(*wk), HybridState(*hs))
+
+
+@jit
+def eval_entry(md, wk, hs):
+    return eval_now(ModelData(*md), Work(*wk), HybridState(*hs))
+
+
+@jit
+def reset_entry(md, wk, hs):
+    reset_settle(ModelData(*md), Work(*wk), HybridState(*hs))

@@ -154,6 +154,16 @@ def test_negative_torque_without_backlash_is_invalid_not_ok():
     assert good["status"] == "ok"
 
 
+def test_simulate_says_when_a_run_lies_outside_the_model(capsys):
+    assert main(["simulate", "--torque", "-100", "--t-end", "0.005", "--json"]) == 0
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert "outside the model" in out["outside_model"] and "backlash" in out["outside_model"]
+    assert cap.err.startswith("gearpair: warning: torque = -100 N.m < 0 without backlash")
+    assert main(["simulate", "--t-end", "0.005", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["outside_model"] is None
+
+
 # -- 4. standstill and user errors ------------------------------------------------------------
 def test_standstill_runs_fast_and_is_refused_clearly_by_the_reference(capsys):
     assert main(["simulate", "--speed-rpm", "0", "--t-end", "0.01", "--json"]) == 0

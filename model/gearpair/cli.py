@@ -256,10 +256,22 @@ def plot_title(scene, engine: str) -> str:
             f"{', '.join(eff)}; {engine} engine")
 
 
+def _outside_model(scene) -> str | None:
+    """Why a run with a constant torque lies outside the model (as a sweep's ``invalid``)."""
+    from .scenes import Constant
+    from .sweep import outside_validity
+
+    torque = scene.inputs.torque
+    return outside_validity(scene.effects, torque.value) if isinstance(torque, Constant) else None
+
+
 def _simulate(args) -> int:
     scene, t_from, extra = (_scene_from_file if args.scene else _scene_from_flags)(args)
     engine = args.engine or scene.solver.engine
     _check_outputs(args)
+    outside = _outside_model(scene)
+    if outside:  # run it (a user may want to see it), but never as if it were valid
+        print(f"gearpair: warning: {outside}", file=sys.stderr)
     wall0 = time.perf_counter()
     try:
         traj = scene.run(engine)
@@ -277,6 +289,7 @@ def _simulate(args) -> int:
     summ["wall_time_s"] = wall
     summ["wall_time_per_simulated_s"] = wall / scene.t_end
     summ["startup_s"] = startup
+    summ["outside_model"] = outside
     if args.out:
         from .scenes import OUTPUT_NAMES
 

@@ -7,7 +7,7 @@ its own end values and time derivatives: a cubic Hermite from F and dF/dt for a 
 step, a quintic from F, F' and F'' for an exact stretch (whose A gives F'' for free). Only
 when that model's reach could beat the running least or greatest value are its turning
 points sought; a Runge-Kutta step's are then refined on the method's continuous extension
-(a few Newton steps on a three-point parabola). Most steps cost a few flops, and the
+(a Newton step on a three-point parabola). Most steps cost a few flops, and the
 extremes do not depend on where steps end (the output interval), to integration accuracy.
 """
 
@@ -29,6 +29,7 @@ from .layout import (
     S_COMP,
     S_DDELTA,
     S_KM,
+    S_QDD,
     W_DK,
 )
 from .tableaux import RK_NS
@@ -143,26 +144,26 @@ def extension_force(md, wk, pc, sp, nf, th):
 
 @jit
 def refine_turn(md, wk, pc, sp, nf, th, th_lim, sgn):
-    """Newton steps towards the turning point near ``th`` (sgn 1: a maximum, -1: a minimum)
-    of the force on the step's continuous extension, each from a parabola through three
-    values ETA apart; every value seen is a point of the trajectory and is recorded."""
+    """A Newton step towards the turning point near ``th`` (sgn 1: a maximum, -1: a
+    minimum) of the force on the step's continuous extension, from a parabola through three
+    values ETA apart, and the value there; every value seen is a point of the trajectory
+    and is recorded. From the cubic's turn one step leaves the value off by a few ulp."""
     summ = wk.summary
     if th_lim > 2.0 * ETA:
-        for _it in range(3):
-            tc = min(max(th, ETA), th_lim - ETA)
-            fm = extension_force(md, wk, pc, sp, nf, tc - ETA)
-            fc = extension_force(md, wk, pc, sp, nf, tc)
-            fp = extension_force(md, wk, pc, sp, nf, tc + ETA)
-            record(summ, fm)
-            record(summ, fc)
-            record(summ, fp)
-            curv = fp - 2.0 * fc + fm
-            if not (sgn * curv < 0.0):
-                return
-            step = min(max(-ETA * (fp - fm) / (2.0 * curv), -0.25), 0.25)
-            th = min(max(tc + step, 0.0), th_lim)
-            if abs(step) < 1e-6:
-                break
+        tc = min(max(th, ETA), th_lim - ETA)
+        fm = extension_force(md, wk, pc, sp, nf, tc - ETA)
+        fc = extension_force(md, wk, pc, sp, nf, tc)
+        fp = extension_force(md, wk, pc, sp, nf, tc + ETA)
+        record(summ, fm)
+        record(summ, fc)
+        record(summ, fp)
+        curv = fp - 2.0 * fc + fm
+        if not (sgn * curv < 0.0):
+            return
+        step = min(max(-ETA * (fp - fm) / (2.0 * curv), -0.25), 0.25)
+        th = min(max(tc + step, 0.0), th_lim)
+        if abs(step) < 1e-6:
+            return
     record(summ, extension_force(md, wk, pc, sp, nf, th))
 
 
@@ -255,8 +256,10 @@ def quintic(f0, d0, e0, f1, d1, e1, h, th):
 
 @jit_inline
 def exact_terms(md, A, z, km, cs):
-    """F, F', F'' (N, N/s, N/s^2) of an exact stretch at z (z' = A z; F'' from the rows of
-    A z, as `lti.lti_dd`)."""
+    """(F, F', F'') (N, N/s, N/s^2) of an exact stretch at z (z' = A z; F'' = km g . q''
+    from the rows of A z, as `lti.lti_dd`)."""
+    if cs == 1:
+        return 0.0, 0.0, 0.0
     comp = z[1] - z[4] + z[2] + z[5]
     if cs == 2:
         comp += md.par[P_BACK]
@@ -266,29 +269,49 @@ def exact_terms(md, A, z, km, cs):
     return km * comp, km * (z[7] - z[10] + z[8] + z[11]), km * dd
 
 
+@jit_inline
+def evaluated_terms(wk, cs):
+    """`exact_terms` at the point ``wk`` was last evaluated at (constant stiffness: F' and
+    F'' are km delta' and km g . q'', already in hand)."""
+    sc = wk.scal
+    if cs == 1:
+        return 0.0, 0.0, 0.0
+    km = sc[S_KM]
+    return km * sc[S_COMP], km * sc[S_DDELTA], km * (sc[S_QDD + 1] - sc[S_QDD + 4]
+                                                     + sc[S_QDD + 2] + sc[S_QDD + 5])
+
+
 @jit
-def stretch_extremes(md, summ, A, z0, z1, h, km, cs):
-    """Interior extremes of the mesh force over the exact stretch z0 -> z1 (h seconds,
-    z' = A z) into the running least and greatest values of ``wk.summary``: the turning
-    points of the quintic Hermite of F, F', F'' at its ends (exact values; error O(h^6),
-    about 1e-8 of the force's swing at the sample spacing). The end values are recorded by
-    the caller; ``summ``: `Work.summary`."""
-    if cs == 1 or not (h > 0.0):
-        return
-    f0, d0, e0 = exact_terms(md, A, z0, km, cs)
-    f1, d1, e1 = exact_terms(md, A, z1, km, cs)
-    reach = h * (QUINTIC_REACH_1 * (abs(d0) + abs(d1))
-                 + QUINTIC_REACH_2 * h * (abs(e0) + abs(e1)))
-    if not could_beat(summ, f0, f1, reach):
-        return
+def stretch_turns(summ, a, b, h):
+    """Record the values at the turning points of the quintic Hermite of ``a`` = (F, F',
+    F'') at the start and ``b`` at the end of a stretch of h seconds: Newton on its slope
+    from the turns of the cubic of F and F'."""
+    f0, d0, e0 = a
+    f1, d1, e1 = b
     r1, r2, _c, _d = cubic_turns(f0, d0, f1, d1, h)
     for k in range(2):
         th = r1 if k == 0 else r2
         if not (th > 0.0):  # nan: none
             continue
-        for _it in range(4):  # Newton on the quintic's slope from the cubic's turn
+        for _it in range(4):
             _p, p1, p2 = quintic(f0, d0, e0, f1, d1, e1, h, th)
             if p2 == 0.0:
                 break
-            th = min(max(th - p1 / p2, 0.0), 1.0)
+            step = p1 / p2
+            th = min(max(th - step, 0.0), 1.0)
+            if abs(step) < 1e-6:  # the value is then off by (1e-6 h)^2 F''/2 at most
+                break
         record(summ, quintic(f0, d0, e0, f1, d1, e1, h, th)[0])
+
+
+@jit_inline
+def stretch_extremes(summ, a, b, h):
+    """Interior extremes of the mesh force over an exact stretch of h seconds into the
+    running least and greatest values ``summ`` (`Work.summary`), from ``a`` and ``b``, the
+    (F, F', F'') at its ends (`exact_terms`): the turning points of their quintic Hermite
+    (error O(h^6), about 1e-8 of the force's swing at the sample spacing), sought only when
+    its reach could beat a running value. The end values are recorded by the caller."""
+    reach = h * (QUINTIC_REACH_1 * (abs(a[1]) + abs(b[1]))
+                 + QUINTIC_REACH_2 * h * (abs(a[2]) + abs(b[2])))
+    if h > 0.0 and could_beat(summ, a[0], b[0], reach):
+        stretch_turns(summ, a, b, h)

@@ -16,7 +16,7 @@ import numpy as np
 from ..jitcache import jit, jit_inline
 from .contact import n_events, pair_k, pair_xi, rhs, solve_small
 from .events import events_at, falls, illinois, illinois_point
-from .extremes import stretch_extremes
+from .extremes import evaluated_terms, exact_terms, stretch_extremes
 from .layout import (
     I_TORS,
     J_REL,
@@ -535,6 +535,7 @@ def lti_march(md, wk, pc, hs, lp, tb):
     ng = n_events(md, pc.nact, pc.cs)
     t = pc.t0
     ks = 0
+    ends = exact_terms(md, wk.lti_mats[lp.slot], z, lp.km, pc.cs)  # F, F', F'' (`extremes`)
     while ks < lp.nsub:
         ks, tn, jumped = lti_substep(md, wk, pc, hs, lp, ks + 1, t, tb)
         if lp.quiet:
@@ -548,16 +549,17 @@ def lti_march(md, wk, pc, hs, lp, tb):
             if falls(wk, ng):
                 lti_switch(md, wk, pc, hs, lp, t, tn, jumped)
                 if not jumped:  # zn: the state at the switch
-                    stretch_extremes(md, wk.summary, wk.lti_mats[lp.slot], z, zn,
-                                     hs.clock[T_T] - t, lp.km, pc.cs)
+                    stretch_extremes(wk.summary, ends, exact_terms(
+                        md, wk.lti_mats[lp.slot], zn, lp.km, pc.cs), hs.clock[T_T] - t)
                 return 1
             if fm > wk.summary[O_FMAX]:
                 wk.summary[O_FMAX] = fm
             if fm < wk.summary[O_FMIN]:
                 wk.summary[O_FMIN] = fm
+            end_terms = evaluated_terms(wk, pc.cs)
             if not jumped:  # a jump is quiet: within rtol of the static force
-                stretch_extremes(md, wk.summary, wk.lti_mats[lp.slot], z, zn, tn - t, lp.km,
-                                 pc.cs)
+                stretch_extremes(wk.summary, ends, end_terms, tn - t)
+            ends = end_terms
             wk.summary[O_FINT] += lti_fint(md.par, wk.lti_mats[lp.slot], z, zn, tn - t, lp.km,
                                            pc.cs, jumped)
             for e in range(ng):

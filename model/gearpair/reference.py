@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 from scipy.integrate import DOP853, LSODA, RK23, RK45, Radau
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from .effects import Effects
 from .engine import (
@@ -127,6 +127,7 @@ class ReferenceEngine(Engine):
         self._last = None
         self._h = None
         self._prev_active = active
+        self._extremes = (-math.inf, math.inf)  # running min/max mesh force of an advance
 
     def get_state(self) -> dict:
         return {
@@ -258,6 +259,7 @@ class ReferenceEngine(Engine):
                 ev = self._eval_at(self.t, self.y, active, self.mode, self.t, self.s)
                 self.y[15] += 0.5 * (ev.km - km_before) * ev.compression**2
             while self.t < tb:
+                self._extremes = (fmax, fmin)  # the running ones: what a step must beat
                 n_ev_seg, n_st, fm, fm_lo, fi = self._integrate_segment(tb, active)
                 n_ev += n_ev_seg
                 n_steps += n_st
@@ -310,11 +312,39 @@ class ReferenceEngine(Engine):
         return h * sum(w * self._mesh_force(ta + x * h, sol(ta + x * h), active, mode, t0, s0)
                        for x, w in zip(_GL3_X, _GL3_W, strict=True))
 
+    def _step_extremes(self, force, ts, fs, fmax: float, fmin: float) -> tuple[float, float]:
+        """The least and greatest mesh force over one solver step, with the running ones.
+
+        ``ts``, ``fs``: the step's start, its dense samples and its end (or the switch that
+        cut it short); ``force(t)``: the force on the step's dense output. Where the samples
+        could hide a value beyond the running extremes (the highest sample within the
+        largest change between neighbouring samples of them), the turn is located on the
+        dense output by bounded Brent between the neighbours of that sample. So the extremes
+        are the trajectory's, not the samples' (StepSummary.mesh_force_min/max).
+        """
+        fs = np.asarray(fs, dtype=float)
+        slack = float(np.abs(np.diff(fs)).max()) if len(fs) > 1 else 0.0
+        n = len(fs)
+        for sgn in (1.0, -1.0):
+            k = int(np.argmax(sgn * fs))
+            best = sgn * fs[k]
+            if best + slack > (fmax if sgn > 0 else -fmin) and n > 1:
+                a, b = ts[max(k - 1, 0)], ts[min(k + 1, n - 1)]
+                res = minimize_scalar(lambda t, sgn=sgn: -sgn * force(t), bounds=(a, b),
+                                      method="bounded", options={"xatol": 1e-6 * (b - a)})
+                best = max(best, -float(res.fun))
+            if sgn > 0:
+                fmax = max(fmax, best)
+            else:
+                fmin = min(fmin, -best)
+        return fmax, fmin
+
     def _integrate_segment(self, tb: float, active) -> tuple[int, int, float, float, float]:
         """Integrate in one contact state from self.t towards tb; stop at the first switch.
 
-        Returns (number of switches, solver steps, peak and least sampled mesh force, the
-        mesh force's time integral (N s))."""
+        Returns (number of switches, solver steps, least and greatest mesh force over the
+        piece with the running ones in ``self._extremes`` (`_step_extremes`), the mesh
+        force's time integral (N s))."""
         m = self.model
         mode = self.mode
         t0, s0 = self.t, self.s
@@ -325,7 +355,8 @@ class ReferenceEngine(Engine):
         if self._h is not None:
             kw["first_step"] = min(self._h, tb - t0)
         solver = solver_cls(fun, t0, self.y, tb, **kw)
-        fmax, fmin, fint = -math.inf, math.inf, 0.0
+        fmax, fmin = self._extremes
+        fint = 0.0
 
         def values(t, y):
             ev = self._eval_at(t, y, active, mode, t0, s0)
@@ -362,6 +393,8 @@ class ReferenceEngine(Engine):
             solver = solver_cls(fun, t0, self.y, tb, **kw)
             g_prev, ev0 = values(t0, self.y)
         n_steps = 0
+        f_start = ev0.mesh_force  # the piece's start (after a boundary: the new pair set's)
+        fmax, fmin = max(fmax, f_start), min(fmin, f_start)
         while True:
             msg = solver.step()
             if solver.status == "failed":
@@ -373,17 +406,21 @@ class ReferenceEngine(Engine):
             ts = np.linspace(ta, tc, self.n_samples + 2)[1:]
             hit = None
             t_prev = ta
+            t_seen, f_seen = [ta], [f_start]
             for tk in ts:
                 yk = sol(tk)
                 gk, evk = values(tk, yk)
-                fmax = max(fmax, evk.mesh_force)
-                fmin = min(fmin, evk.mesh_force)
                 if len(gk):
                     falls = np.flatnonzero((g_prev > 0.0) & (gk <= 0.0))
-                    if falls.size:
+                    if falls.size:  # the force at tk is the old state's, past the switch
                         hit = (t_prev, tk, falls)
                         break
+                t_seen.append(tk)
+                f_seen.append(evk.mesh_force)
                 g_prev, t_prev = gk, tk
+
+            def force(t, sol=sol):
+                return self._mesh_force(t, sol(t), active, mode, t0, s0)
             if hit is not None:
                 t_lo, tk, falls = hit
                 # Refine the earliest of the falling functions.
@@ -399,6 +436,10 @@ class ReferenceEngine(Engine):
                         best_t, best_i = te, int(i)
                 te = best_t
                 ye = sol(te)
+                if te > t_seen[-1]:
+                    t_seen.append(te)
+                    f_seen.append(force(te))
+                fmax, fmin = self._step_extremes(force, t_seen, f_seen, fmax, fmin)
                 fint += self._mesh_force_integral(sol, ta, te, active, mode, t0, s0)
                 self._book(t0, te, mode)
                 self.y = ye
@@ -413,6 +454,8 @@ class ReferenceEngine(Engine):
                 self.y = ye.copy()
                 self.y[N_Q:2 * N_Q] = qd
                 return 1, n_steps, fmax, fmin, fint
+            fmax, fmin = self._step_extremes(force, t_seen, f_seen, fmax, fmin)
+            f_start = f_seen[-1]
             fint += self._mesh_force_integral(sol, ta, tc, active, mode, t0, s0)
             if solver.status == "finished" or tc >= tb:
                 self._book(t0, tb, mode)

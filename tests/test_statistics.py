@@ -211,6 +211,26 @@ def test_back_flank_is_reported_as_contact_not_loss(capsys):
     assert out["mesh_force_n"]["mean"] < -30e3  # the back flanks carry the load
 
 
+def test_fmu_summary_names_its_samples_and_reports_start_up_apart(fmu_path):
+    """``--engine fmu``: the FMU has no back-flank, mean or least-force output, so its
+    summary gives the statistics of its output samples under ``_sampled`` names (the
+    back-contact ratio included), its ``max`` from its per-step ``mesh_force_max`` (the
+    engine's trajectory extreme, as the fast engine's to 1e-9), and the FMU's start-up
+    (instantiation, initialization: building the engine) apart from the run's wall time."""
+    pytest.importorskip("fmpy")
+    scene = load_scene("examples/scenes/torque_reversal_backlash.toml").with_t_end(0.08)
+    fmu = scene.run("fmu", fmu_path=fmu_path)
+    fast = scene.run("fast")
+    assert fmu.meta["startup_s"] > 0 and fmu.meta["wall_time_s"] > 0
+    got, ref = fmu.summary(0.07), fast.summary(0.07)
+    assert "back_contact_ratio" not in got and got["back_contact_ratio_sampled"] == 1.0
+    assert ref["back_contact_ratio"] == 1.0
+    force = got["mesh_force_n"]
+    assert set(force) == {"min_sampled", "mean_sampled", "max"}
+    assert force["max"] == pytest.approx(ref["mesh_force_n"]["max"], rel=1e-9)
+    assert force["min_sampled"] >= ref["mesh_force_n"]["min"]
+
+
 def test_negative_torque_without_backlash_is_invalid_not_ok():
     res = run_sweep("torque", [-3900.0, 3900.0], QUICK.replace(kept_periods=8,
                     transient_periods=8), scheduler="serial", retries=1, progress=False)

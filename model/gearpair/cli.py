@@ -279,8 +279,8 @@ def _simulate(args) -> int:
         # a failed run or a missing extra, not bad input
         print(f"gearpair: error: {exc}", file=sys.stderr)
         return 1
-    # run time apart from start-up (building the engine, loading its compiled code): the
-    # FMU's run includes its instantiation, so its start-up is not known apart
+    # run time apart from start-up (building the engine, loading its compiled code; the
+    # FMU's instantiation and initialization)
     startup = traj.meta.get("startup_s")
     wall = traj.meta.get("wall_time_s", time.perf_counter() - wall0)
     summ = {"scene": scene.name, "engine": engine, "t_end": scene.t_end, **extra,
@@ -319,9 +319,16 @@ def _simulate(args) -> int:
     print(f"  contact-loss ratio   {summ['contact_loss_ratio']:.4f}")
     if "back_contact_ratio" in summ:
         print(f"  back-contact ratio   {summ['back_contact_ratio']:.4f}")
-    mean = f"mean {f['mean'] / 1e3:.2f}" if "mean" in f else \
-        f"mean of the samples {f['mean_sampled'] / 1e3:.2f}"
-    print(f"  mesh force (kN)      min {f['min'] / 1e3:.2f}  {mean}  max {f['max'] / 1e3:.2f}")
+    elif "back_contact_ratio_sampled" in summ:
+        print(f"  back-contact ratio   {summ['back_contact_ratio_sampled']:.4f} (of the "
+              "output samples)")
+
+    def stat(key: str, label: str) -> str:  # an FMU may give only samples
+        return f"{label} {f[key] / 1e3:.2f}" if key in f else \
+            f"{label} of the samples {f[key + '_sampled'] / 1e3:.2f}"
+
+    print(f"  mesh force (kN)      {stat('min', 'min')}  {stat('mean', 'mean')}  "
+          f"{stat('max', 'max')}")
     print(f"  DTE (um, samples)    mean {d['mean'] * 1e6:.3f}  peak-to-peak "
           f"{d['peak_to_peak'] * 1e6:.3f}")
     start = "" if startup is None else f"; start-up {startup:.2f} s apart"

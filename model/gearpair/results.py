@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .effects import Effects
-from .engine import Engine, Outputs
+from .engine import CONTACT_BACK, Engine, Outputs
 from .params import RPM, GearParams, OperatingPoint
 
 Input = float | Callable[[float], float]
@@ -92,8 +92,12 @@ class Trajectory:
         under a negative torque, not contact loss)."""
         out = {"stick_ratio": self._time_mean("stick_fraction", t_from),
                "contact_loss_ratio": self._time_mean("separation_fraction", t_from)}
-        if "back_fraction" in self.data:  # an FMU's record has no such output
+        if "back_fraction" in self.data:
             out["back_contact_ratio"] = self._time_mean("back_fraction", t_from)
+        elif "contact_state" in self.data:  # an FMU without the output: its samples
+            w = self.window(t_from)
+            out["back_contact_ratio_sampled"] = float(np.mean(self.data["contact_state"][w]
+                                                              == CONTACT_BACK))
         return out
 
     def summary(self, t_from: float = 0.0) -> dict:
@@ -101,24 +105,30 @@ class Trajectory:
 
         ``mesh_force_n``: ``mean`` is the time mean from the engine's integral over every
         integrator step (not a mean of samples, which at a fixed output interval locks to
-        phases of the mesh period), ``min`` and ``max`` the least and peak values of the
-        engine's dense samples inside every interval. A record without the integral (the
-        FMU's) gives ``mean_sampled`` instead. ``dte_m_sampled``: statistics of the DTE at
-        the output instants only.
+        phases of the mesh period), ``min`` and ``max`` the least and greatest force of the
+        trajectory (`StepSummary.mesh_force_min`/``max``: turning points located inside
+        every integrator step, so they do not depend on the output interval). A record
+        without a step figure (an FMU lacking that output) gives the statistic of the output
+        samples instead, named ``mean_sampled``, ``min_sampled``, ``max_sampled`` (and
+        `ratios` ``back_contact_ratio_sampled``). ``dte_m_sampled``: statistics of the DTE
+        at the output instants only.
         """
         w = self.window(t_from)
         f = self.data["mesh_force"][w]
-        fmax = self.data["mesh_force_max"][w]
         out = self.ratios(t_from)
-        fmin = float(f.min())
+        force = {}
         if "mesh_force_min" in self.data:
-            fmin = min(fmin, float(self.data["mesh_force_min"][w].min()))
-        force = {"min": fmin}
+            force["min"] = min(float(f.min()), float(self.data["mesh_force_min"][w].min()))
+        else:
+            force["min_sampled"] = float(f.min())
         if "mesh_force_mean" in self.data:
             force["mean"] = self._time_mean("mesh_force_mean", t_from)
         else:
             force["mean_sampled"] = float(f.mean())
-        force["max"] = float(max(f.max(), fmax.max()))
+        if "mesh_force_max" in self.data:
+            force["max"] = max(float(f.max()), float(self.data["mesh_force_max"][w].max()))
+        else:
+            force["max_sampled"] = float(f.max())
         out["mesh_force_n"] = force
         d = self.data["dte"][w]
         out["dte_m_sampled"] = {"min": float(d.min()), "mean": float(d.mean()),

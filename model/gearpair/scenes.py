@@ -345,48 +345,93 @@ def fmu_start_values(scene: Scene, variables: dict[str, Any]) -> dict[str, Any]:
 def run_fmu(scene: Scene, fmu_path: str | Path | None = None) -> Trajectory:
     """Run the scene through the GearPair FMU with fmpy at the scene's communication step.
 
-    The inputs go in as an fmpy input table with one row per communication point, so the
-    FMU holds exactly the values `simulate` holds (fmpy applies the table at each point).
+    The FMU is driven as an FMI 2.0 co-simulation master drives it (fmpy's ``FMU2Slave``):
+    inputs set at each communication point and held over the step (the values `simulate`
+    holds), then ``doStep``. The trajectory's ``meta`` has ``startup_s`` (extracting and
+    instantiating the FMU and its initialization, where it builds the engine and loads the
+    compiled code) apart from ``wall_time_s`` (the steps and the reading of the outputs).
     """
     try:
         import fmpy
+        from fmpy.fmi2 import FMU2Slave
     except ImportError:
         raise SceneError("--engine fmu needs fmpy: pip install 'gearpair[fmu]'") from None
+    import shutil
+
     path = Path(fmu_path) if fmu_path is not None else default_fmu()
+    wall0 = _time.perf_counter()
     md = fmpy.read_model_description(str(path))
     variables = {v.name: v for v in md.modelVariables}
     start = fmu_start_values(scene, variables)
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    reals = [n for n in outputs if variables[n].type == "Real"]
+    others = [n for n in outputs if variables[n].type != "Real"]
     h, t_end = scene.step, scene.t_end
     n = int(math.ceil(t_end / h - 1e-9))
-    grid = np.minimum(h * np.arange(n + 1), t_end)  # fmpy's communication points
+    grid = np.minimum(h * np.arange(n + 1), t_end)  # the communication points
     grid[-1] = t_end
     fT, fW = scene.inputs.torque, scene.inputs.speed
-    # every input of the FMU gets a column (fmpy warns about a missing one); a scene drives
-    # no load shaft, so load_speed stays 0 with load_speed_input false
-    sig = np.zeros(grid.size, dtype=[("time", float), ("torque", float), ("speed", float),
-                                     ("load_speed", float)])
-    sig["time"] = grid
-    sig["torque"] = [fT(t) for t in grid]
-    sig["speed"] = [fW(t) for t in grid]
-    wall0 = _time.perf_counter()
+    # a scene drives no load shaft: load_speed stays 0 with load_speed_input false
+    vr_in = [variables[k].valueReference for k in ("torque", "speed", "load_speed")
+             if k in variables]
+    vr_real = [variables[k].valueReference for k in reals]
+    vr_other = [variables[k].valueReference for k in others]
+    rec = np.zeros((n + 1, len(outputs)))
+    unzip = fmpy.extract(str(path))
+    fmu = None
+    t = 0.0
     try:
-        res = fmpy.simulate_fmu(str(path), start_time=0.0, stop_time=t_end, output_interval=h,
-                                start_values=start, input=sig, output=outputs)
-    except Exception as exc:  # fmpy reports a refused step as a generic exception
-        raise RuntimeError(f"FMU run of scene {scene.name!r} failed: {exc} (rerun with fmpy's "
-                           "debug_logging for the FMU's message)") from exc
-    wall = _time.perf_counter() - wall0
-    t = np.asarray(res["time"], dtype=float)
-    data: dict[str, np.ndarray] = {"time": t}
-    for name in outputs:
-        data[name] = np.asarray(res[name], dtype=float)
+        fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, instanceName="gearpair",
+                        modelIdentifier=md.coSimulation.modelIdentifier)
+        fmu.instantiate()
+        fmu.setupExperiment(startTime=0.0)
+        for name, value in start.items():
+            v = variables[name]
+            if v.type == "Real":
+                fmu.setReal([v.valueReference], [float(value)])
+            elif v.type == "Boolean":
+                fmu.setBoolean([v.valueReference], [bool(value)])
+            else:
+                fmu.setInteger([v.valueReference], [int(value)])
+
+        def inputs(t):
+            fmu.setReal(vr_in, [float(fT(t)), float(fW(t)), 0.0][:len(vr_in)])
+
+        def read(i):
+            rec[i, :len(reals)] = fmu.getReal(vr_real)
+            if vr_other:
+                rec[i, len(reals):] = fmu.getInteger(vr_other)
+
+        fmu.enterInitializationMode()
+        inputs(0.0)
+        fmu.exitInitializationMode()
+        startup = _time.perf_counter() - wall0
+        wall0 = _time.perf_counter()
+        read(0)
+        for i in range(1, n + 1):
+            t = float(grid[i - 1])
+            inputs(t)
+            fmu.doStep(currentCommunicationPoint=t, communicationStepSize=float(grid[i]) - t)
+            read(i)
+        wall = _time.perf_counter() - wall0
+        fmu.terminate()
+    except Exception as exc:  # fmpy reports a refused call as a generic exception
+        raise RuntimeError(f"FMU run of scene {scene.name!r} failed at t = {t:g} s: {exc} "
+                           "(rerun with fmpy's debug_logging for the FMU's message)") from exc
+    finally:
+        if fmu is not None:
+            fmu.freeInstance()
+        shutil.rmtree(unzip, ignore_errors=True)
+    data: dict[str, np.ndarray] = {"time": grid.astype(float)}
+    for k, name in enumerate(reals + others):
+        data[name] = rec[:, k]
     # As `simulate` records: row i holds the inputs held over the interval ending at t[i].
-    held = np.concatenate([t[:1], t[:-1]])
+    held = np.concatenate([grid[:1], grid[:-1]])
     data["torque"] = np.array([fT(x) for x in held])
     data["speed"] = np.array([fW(x) for x in held])
     data["load_speed"] = data["speed"] * scene.params.ratio  # nominal, as in `simulate`
-    return Trajectory(data, {"engine": "fmu", "wall_time_s": wall, "fmu": str(path)})
+    return Trajectory(data, {"engine": "fmu", "wall_time_s": wall, "startup_s": startup,
+                             "fmu": str(path)})
 
 
 # -- reading and validation ----------------------------------------------------------------------

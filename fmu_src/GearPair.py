@@ -100,7 +100,7 @@ OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | Non
     ("separation_fraction", "Real", "1", None, 0.0, 1.0,
      "fraction of the last communication step with the teeth apart"),
     ("mesh_force_max", "Real", "N", "kN", None, None,
-     "peak elastic mesh force in the last communication step"),
+     "greatest elastic mesh force in the last communication step"),
     ("n_events", "Integer", None, None, 0, None,
      "number of state switches located in the last communication step"),
 )
@@ -108,6 +108,21 @@ _OUTPUT_FIELDS = ("dte", "mesh_force", "friction_force", "output_torque",
                   "input_torque_reaction", "input_torque", "gear1_speed", "gear2_speed",
                   "sliding_velocity")
 _SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
+# Step figures added later: registered after every other variable (`interface`), so the value
+# references of the earlier ones stay as they were; their values are the last three step
+# figures in `StepSummary`'s order (`_values_of`, `FastEngine.advance_values`).
+APPENDED_OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | None,
+                              str], ...] = (
+    ("back_fraction", "Real", "1", None, 0.0, 1.0,
+     "fraction of the last communication step with the back flanks in contact (backlash > 0: "
+     "contact under a negative torque, not contact loss)"),
+    ("mesh_force_mean", "Real", "N", "kN", None, None,
+     "time mean of the elastic mesh force over the last communication step (from the "
+     "engine's integral over its steps)"),
+    ("mesh_force_min", "Real", "N", "kN", None, None,
+     "least elastic mesh force in the last communication step"),
+)
+_APPENDED_FIELDS = tuple(row[0] for row in APPENDED_OUTPUTS)
 _VALUE_ORDER = _OUTPUT_FIELDS[:3] + ("contact_state",) + _OUTPUT_FIELDS[3:]  # `_copy_values`
 
 
@@ -246,6 +261,8 @@ def interface(gp=None) -> list[dict[str, Any]]:
     add("stribeck_velocity", "Real", "parameter", "fixed", "m/s", None, 0.0, STRIBECK_MAX, 0.0,
         "Stribeck velocity v_s: the sliding coefficient is mu + (mu_static - mu) "
         "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3")
+    for name, typ, unit, dunit, lo, hi, doc in APPENDED_OUTPUTS:
+        add(name, typ, "output", "continuous", unit, dunit, lo, hi, None, doc)
     return out
 
 
@@ -468,15 +485,19 @@ class GearPair(Fmi2Slave):
                   o.sliding_velocity)
         if summary is None:
             cs = int(o.contact_state)
-            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs == 0 else 0.0, o.mesh_force, 0)
+            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs == 0 else 0.0, o.mesh_force, 0, 0,
+                       1.0 if cs == 3 else 0.0, o.mesh_force, o.mesh_force)
         else:
             figures = (summary.stick_fraction, summary.separation_fraction,
-                       summary.mesh_force_max, summary.n_events)
+                       summary.mesh_force_max, summary.n_events, summary.n_steps,
+                       summary.back_fraction, summary.mesh_force_mean, summary.mesh_force_min)
         return values, figures
 
     def _copy_values(self, values, figures) -> None:
         """Outputs from the `Outputs` values in field order (after time) and the step figures
-        (stick_fraction, separation_fraction, mesh_force_max, n_events)."""
+        in `StepSummary`'s order, as `FastEngine.advance_values` returns them
+        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps,
+        back_fraction, mesh_force_mean, mesh_force_min)."""
         (self.dte, self.mesh_force, self.friction_force, cs, self.output_torque,
          self.input_torque_reaction, self.input_torque, self.gear1_speed, self.gear2_speed,
          self.sliding_velocity) = values
@@ -484,14 +505,18 @@ class GearPair(Fmi2Slave):
         (self.stick_fraction, self.separation_fraction, self.mesh_force_max,
          self.n_events) = (float(figures[0]), float(figures[1]), float(figures[2]),
                            int(figures[3]))
+        self.back_fraction, self.mesh_force_mean, self.mesh_force_min = (
+            float(figures[5]), float(figures[6]), float(figures[7]))
 
     @staticmethod
     def _not_finite(values, figures) -> str | None:
         """Name of the first output that is not finite, or None (checked before anything is
         shown, so a refused step leaves the outputs of the last good one)."""
-        if math.isfinite(sum(values) + figures[0] + figures[1] + figures[2]):
+        if math.isfinite(sum(values) + figures[0] + figures[1] + figures[2] + figures[5]
+                         + figures[6] + figures[7]):
             return None  # one check on the usual path (inf - inf is nan)
-        for name, v in zip(_VALUE_ORDER + _SUMMARY_FIELDS, tuple(values) + tuple(figures[:3]),
+        for name, v in zip(_VALUE_ORDER + _SUMMARY_FIELDS + _APPENDED_FIELDS,
+                           tuple(values) + tuple(figures[:3]) + tuple(figures[5:8]),
                            strict=True):
             if not math.isfinite(v):
                 return name
@@ -591,7 +616,7 @@ class GearPair(Fmi2Slave):
             try:
                 f = advance(t + h, torque, speed, load)
                 values = outputs().tolist()
-                ok = isfinite(sum(values) + f[0] + f[1] + f[2])
+                ok = isfinite(sum(values) + f[0] + f[1] + f[2] + f[5] + f[6] + f[7])
             except Exception:  # noqa: BLE001 - `_do_step` repeats the step and reports
                 ok = False
             if not ok:
@@ -603,6 +628,9 @@ class GearPair(Fmi2Slave):
             self.contact_state = int(cs)
             self.stick_fraction, self.separation_fraction = float(f[0]), float(f[1])
             self.mesh_force_max, self.n_events = float(f[2]), int(f[3])
+            # advance_values: ..., n_steps, back_fraction, mesh_force_mean, mesh_force_min
+            self.back_fraction, self.mesh_force_mean, self.mesh_force_min = (
+                float(f[5]), float(f[6]), float(f[7]))
             return True
 
         return step

@@ -227,31 +227,31 @@ def _scene_from_file(args):
 
 
 def _check_outputs(args) -> None:
-    """Refuse what would fail only after the run: create the folders of --out and --plot
-    (as ``sweep --out`` does) and check the figure format."""
-    from pathlib import Path
+    """Refuse what would fail only after the run: --out and --plot must be writable files
+    (their folders are created, as ``sweep --out`` does) and the figure format known."""
+    from .writable import check_writable
 
     for flag, path in (("--out", args.out), ("--plot", args.plot)):
-        if not path:
-            continue
-        p = Path(path)
-        if p.is_dir():
-            raise ValueError(f"{flag} {path}: is a folder; give a file name")
-        try:
-            p.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ValueError(f"{flag} {path}: cannot create its folder ({exc.strerror})") \
-                from None
+        if path is not None:
+            check_writable(flag, path)
     if args.plot:
-        try:
-            from matplotlib.backend_bases import FigureCanvasBase
-        except ImportError:  # reported by Trajectory.plot after the run
-            return
-        kinds = FigureCanvasBase.get_supported_filetypes()
-        suffix = Path(args.plot).suffix.lstrip(".").lower()
-        if suffix not in kinds:
-            raise ValueError(f"--plot {args.plot}: unknown figure format {suffix!r}; allowed "
-                             + ", ".join(sorted(kinds)))
+        check_figure_format("--plot", args.plot)
+
+
+def check_figure_format(flag: str, path: str) -> None:
+    """``ValueError`` naming ``flag`` if matplotlib cannot write the suffix of ``path``
+    (nothing is checked without matplotlib: the plot reports that after the run)."""
+    from pathlib import Path
+
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        return
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lstrip(".").lower()
+    if suffix not in kinds:
+        raise ValueError(f"{flag} {path}: unknown figure format {suffix!r}; allowed "
+                         + ", ".join(sorted(kinds)))
 
 
 def _schedule_text(f, unit: str, scale: float = 1.0) -> str:

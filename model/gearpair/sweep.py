@@ -872,11 +872,14 @@ def main(args) -> int:
     # Check names and the held values here, so a typo fails before a cluster starts.
     settings.inputs("speed_rpm", settings.speed_rpm)
     values = parse_values(args.values)
-    try:  # the output folder before the run, not after it
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out {args.out}: cannot create its folder ({exc.strerror})") \
-            from None
+    # every output file before the run, not after it (`SweepResult.write` names them)
+    from .writable import check_writable
+
+    prefix = Path(args.out)
+    names = [prefix.with_suffix(".csv"), Path(f"{prefix}_poincare.csv"),
+             prefix.with_suffix(".json")] + ([] if args.no_plot else [prefix.with_suffix(".png")])
+    for name in names:
+        check_writable("--out", name, shown=args.out)
     res = run_sweep(args.param, values, settings, scheduler=args.scheduler,
                     workers=args.workers, retries=args.retries, progress=not args.quiet)
     files = res.write(args.out, plot=not args.no_plot)

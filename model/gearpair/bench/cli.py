@@ -64,6 +64,12 @@ def main(argv: list[str] | argparse.Namespace | None = None) -> int:
         add_parser(ap.add_subparsers(dest="cmd", required=True))
         args = ap.parse_args(["bench", *(sys.argv[1:] if argv is None else argv)])
     s = settings_from(args)
+    if args.plot:  # before minutes of measuring, not after them
+        from ..cli import check_figure_format
+        from ..writable import check_writable
+
+        check_writable("--plot", args.plot)
+        check_figure_format("--plot", args.plot)
     t0 = time.perf_counter()
 
     def progress(msg: str) -> None:

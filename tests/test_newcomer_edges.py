@@ -136,3 +136,64 @@ def test_build_fmu_announces_the_engine_compile_before_it_starts(monkeypatch, tm
     assert "a few minutes the first time" in before
     after = capsys.readouterr().err
     assert after.startswith("build_fmu: fast engine compiled in ") and "42 files" in after
+
+
+# -- a torque the teeth cannot carry ----------------------------------------------------------
+USER_GEAR = dict(module=4e-3, z1=25, z2=60, face_width=0.04, km_mean=8e8)
+USER_SET = [a for k, v in USER_GEAR.items() for a in ("--set", f"{k}={v}")] + [
+    "--bore-ratio", "0", "--first-mode-hz", "32"]
+
+
+def test_unit_load_is_the_iso_nominal_tooth_root_load():
+    from gearpair import GearParams
+    from gearpair.geometry import UNIT_LOAD_LIMIT, load_implausibility, unit_load
+
+    # Ft = 2 T / d1 = 2 * 3900 / (0.004 * 25) = 78 kN over b m = 40 mm * 4 mm
+    assert unit_load(GearParams(**USER_GEAR), 3900.0) == pytest.approx(487.5)
+    assert unit_load(GearParams(), -3900.0) == pytest.approx(7800 / 0.198 / 1200)  # 33 N/mm2
+    assert load_implausibility(GearParams(), 3900.0) is None
+    msg = load_implausibility(GearParams(**USER_GEAR), 3900.0)
+    assert "Ft/(b m) = 487 N/mm2" in msg and f"exceeds {UNIT_LOAD_LIMIT:g} N/mm2" in msg
+    # the bound: just below and above 250 N/mm2 for Table 1's gears
+    t_limit = UNIT_LOAD_LIMIT * 1e6 * 0.2 * 0.006 * 0.006 * 33 / 2
+    assert load_implausibility(GearParams(), 0.999 * t_limit) is None
+    assert load_implausibility(GearParams(), 1.001 * t_limit) is not None
+
+
+def test_simulate_and_scenes_warn_of_an_implausible_torque(tmp_path):
+    from gearpair import GearParams
+    from gearpair.geometry import GearDataWarning, steel_body
+    from gearpair.results import simulate
+    from gearpair.scenes import load_scene
+
+    own = steel_body(GearParams(**USER_GEAR), 0.0)
+    with pytest.warns(GearDataWarning, match=r"Ft/\(b m\) = 487 N/mm2"):
+        simulate(own, t_end=2e-4, torque=3900.0, engine="reference")
+    with pytest.warns(GearDataWarning, match=r"Ft/\(b m\) = 487 N/mm2"):  # a ramp's peak
+        simulate(own, t_end=2e-4, torque=lambda t: 270.0 + 3630.0 * t / 2e-4, dt=1e-4,
+                 engine="reference")
+    gear = "\n".join(f"{k} = {v}" for k, v in USER_GEAR.items())
+    scene = tmp_path / "own.toml"
+    scene.write_text(f"t_end = 2e-4\n[gear]\n{gear}\nbore_ratio = 0\n"
+                     "[inputs]\ntorque = {kind = \"ramp\", from = 270.0, to = 3900.0, "
+                     "t0 = 0, t1 = 1e-4}\n")
+    with pytest.warns(GearDataWarning, match="torque 3900 N.m is implausible"):
+        load_scene(scene).run("reference")
+
+
+def test_cli_warns_of_an_implausible_torque_on_stderr_and_runs(capsys):
+    assert main(["simulate", *USER_SET, "--t-end", "0.002", "--json"]) == 0
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)["torque_nm"] == 3900.0  # it ran
+    lines = [ln for ln in cap.err.splitlines() if "implausible" in ln]
+    assert len(lines) == 1 and lines[0].startswith("gearpair: warning: torque 3900 N.m")
+    assert main(["simulate", *USER_SET, "--t-end", "0.002", "--torque", "270"]) == 0
+    assert "implausible" not in capsys.readouterr().err
+
+
+def test_sweep_warns_of_its_heaviest_point_before_the_run(no_runs, tmp_path, capsys):
+    with pytest.raises(AssertionError, match="run started"):
+        main(["sweep", "torque", "270,3900,1000", "--scheduler", "serial", *USER_SET[:10],
+              "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err
+    assert err.count("implausible") == 1 and "torque 3900 N.m" in err

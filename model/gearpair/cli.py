@@ -300,6 +300,11 @@ def _simulate(args) -> int:
     scene, t_from, extra = (_scene_from_file if args.scene else _scene_from_flags)(args)
     engine = args.engine or scene.solver.engine
     _check_outputs(args)
+    if engine == "fmu":  # the other engines warn in `gearpair.results.simulate`
+        from .results import _check_load
+
+        _check_load(None, scene.params, scene.inputs.torque,
+                    np.linspace(0.0, scene.t_end, 1001))
     outside = _outside_model(scene)
     if outside:  # run it (a user may want to see it), but never as if it were valid
         print(f"gearpair: warning: {outside}", file=sys.stderr)

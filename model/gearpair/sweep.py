@@ -872,6 +872,12 @@ def main(args) -> int:
     # Check names and the held values here, so a typo fails before a cluster starts.
     settings.inputs("speed_rpm", settings.speed_rpm)
     values = parse_values(args.values)
+    # the heaviest tooth load of the sweep, once, before the run (a GearDataWarning line)
+    from .geometry import unit_load, warn_implausible_load
+
+    points = [settings.inputs(args.param, v) for v in values]
+    p, _, torque, _ = max(points, key=lambda pt: unit_load(pt[0], pt[2]))
+    warn_implausible_load(p, torque)
     # every output file before the run, not after it (`SweepResult.write` names them)
     from .writable import check_writable
 

@@ -197,3 +197,72 @@ def test_sweep_warns_of_its_heaviest_point_before_the_run(no_runs, tmp_path, cap
               "--out", str(tmp_path / "t")])
     err = capsys.readouterr().err
     assert err.count("implausible") == 1 and "torque 3900 N.m" in err
+
+
+# -- bench --quick: what it compiles, when, and that it says so ---------------------------------
+class _Stop(Exception):
+    pass
+
+
+def test_bench_compiles_the_fmus_engine_beside_its_warm_up_and_before_any_timing(monkeypatch):
+    """The FMU's engine (compiled for a portable CPU, minutes once per engine change) is
+    compiled in a child beside the warm-up, and finished before the first timed section."""
+    import threading
+
+    import gearpair.shipped
+    from gearpair.bench import QUICK, measure
+
+    events, msgs, release = [], [], threading.Event()
+
+    def ship(package, import_name):
+        events.append(("ship", import_name, (Path(package) / "fast").is_dir()))
+        release.wait(30)  # finishes only once the warm-up ran: the two overlap
+        events.append("ship done")
+        return {"cpu_name": "x86-64-v2", "compiled": {"source": "compiled"}}
+
+    def warm_up(progress):
+        events.append("warm-up")
+        release.set()
+        return 0.0
+
+    def references(s, progress):
+        events.append("timed")
+        raise _Stop
+
+    monkeypatch.setattr(gearpair.shipped, "ship", ship)
+    monkeypatch.setattr(measure, "warm_up", warm_up)
+    monkeypatch.setattr(measure, "references", references)
+    with pytest.raises(_Stop):
+        measure.run(QUICK, msgs.append)
+    assert ("ship", "_gearpair_fmu", True) in events  # a copy of the package, the FMU's name
+    assert events.index("warm-up") < events.index("ship done") < events.index("timed")
+    said = "\n".join(msgs)
+    assert "compiling the FMU's engine in a child process" in said
+    assert "FMU's engine (for x86-64-v2 CPUs): compiled once" in said
+
+
+_NO_LOAD_AFTER_WARM_UP = r"""
+import json, sys
+from gearpair import jitcache
+from gearpair.bench import QUICK, cost_table, core_step_costs, engine_call_cost, warm_up
+warm_up()
+before = dict(jitcache.STATS)
+core_step_costs(QUICK, {r: [1e-6] for r in ("no_friction", "sliding", "stick_slip")})
+engine_call_cost(20)
+cost_table(QUICK)
+print(json.dumps([before, jitcache.STATS]))
+"""
+
+
+def test_bench_warm_up_loads_every_compiled_path_that_is_timed(tmp_path):
+    """After `warm_up` no timed section loads (or compiles) a compiled function: the per-step
+    ``advance`` path of the step costs and the ladder was loaded only inside timed runs."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("numba")
+    proc = subprocess.run([sys.executable, "-c", _NO_LOAD_AFTER_WARM_UP], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    before, after = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert after == before

@@ -797,7 +797,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "ends included), in the unit of PARAM")
     s.add_argument("--out", default="sweep", metavar="PREFIX", help="output prefix: writes "
                    "PREFIX.csv, PREFIX_poincare.csv, PREFIX.json, PREFIX.png (its folder is "
-                   "created); default sweep")
+                   "created; checked for writing before the run); default sweep")
     s.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="address of a running dask scheduler (tcp://host:port); 'serial' runs "
                    "in this process; default: a local cluster of --workers processes")

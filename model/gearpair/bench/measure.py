@@ -77,7 +77,8 @@ class _FmuEngineCompile:
     def wait(self) -> None:
         """Block until the compile is done (before any timed section) and say how it went."""
         if self.thread.is_alive():
-            self.progress("waiting for the FMU's engine to compile (once per engine change)")
+            self.progress("waiting for the FMU's engine (seconds from the cache, minutes when "
+                          "it compiles, once per engine change)")
         self.thread.join()
         took = time.perf_counter() - self.t0
         if self.error:

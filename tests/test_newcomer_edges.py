@@ -266,3 +266,20 @@ def test_bench_warm_up_loads_every_compiled_path_that_is_timed(tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     before, after = json.loads(proc.stdout.strip().splitlines()[-1])
     assert after == before
+
+
+# -- the suite's expected warnings are filtered where they are expected --------------------------
+def test_property_tests_expect_their_table1_body_warnings_and_no_other(tmp_path):
+    """With GearDataWarning made an error, the property tests still pass: the one they
+    expect (Table 1 bodies with drawn tooth numbers) is filtered in that file, so a new
+    warning there would stand out instead of drowning among twenty."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("hypothesis")
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-W",
+         "error::gearpair.geometry.GearDataWarning", str(ROOT / "tests" / "test_properties.py")],
+        cwd=tmp_path, capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, proc.stdout[-3000:]
+    assert "warning" not in proc.stdout.splitlines()[-1]

@@ -124,7 +124,7 @@ def _modes(args) -> int:
                                      else "stick_slip")
         effects = Effects(stiffness="constant", dof=dof, sliding=sliding, friction=friction)
         base = GearParams()
-        source = "the command line's"
+        source = "command line"
     if args.mu is not None:
         if any(i.partition("=")[0].strip() == "mu" for i in args.set):
             raise ValueError("give --mu or --set mu=..., not both")
@@ -154,7 +154,7 @@ def _modes(args) -> int:
     changed = _changed(p)
     print("gear data: Table 1" + (" except " + ", ".join(f"{k} = {v:.6g}" for k, v in
                                                          changed.items()) if changed else ""))
-    print(f"model ({source} effects): {words}")
+    print(f"model ({source}): {words}")
     for which in which_models:
         d = out[which]
         print(f"{which} model: natural frequencies (Hz) and mode shapes (largest component 1)")

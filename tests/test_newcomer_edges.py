@@ -283,3 +283,11 @@ def test_property_tests_expect_their_table1_body_warnings_and_no_other(tmp_path)
         cwd=tmp_path, capture_output=True, text=True, timeout=1800)
     assert proc.returncode == 0, proc.stdout[-3000:]
     assert "warning" not in proc.stdout.splitlines()[-1]
+
+
+def test_sweep_load_check_leaves_refused_values_to_the_run(no_runs, tmp_path):
+    """A value the point refuses (mu = -1) is an `invalid` record of the run, not an error of
+    the load check before it."""
+    with pytest.raises(AssertionError, match="run started"):
+        main(["sweep", "--scheduler", "serial", "--out", str(tmp_path / "m"), "mu", "--",
+              "-1,0.02"])

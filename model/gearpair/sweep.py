@@ -875,9 +875,15 @@ def main(args) -> int:
     # the heaviest tooth load of the sweep, once, before the run (a GearDataWarning line)
     from .geometry import unit_load, warn_implausible_load
 
-    points = [settings.inputs(args.param, v) for v in values]
-    p, _, torque, _ = max(points, key=lambda pt: unit_load(pt[0], pt[2]))
-    warn_implausible_load(p, torque)
+    points = []
+    for v in values:
+        try:
+            points.append(settings.inputs(args.param, v))
+        except ValueError:  # refused at its run: an `invalid` record, not an error here
+            pass
+    if points:
+        p, _, torque, _ = max(points, key=lambda pt: unit_load(pt[0], pt[2]))
+        warn_implausible_load(p, torque)
     # every output file before the run, not after it (`SweepResult.write` names them)
     from .writable import check_writable
 

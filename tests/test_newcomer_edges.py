@@ -291,3 +291,12 @@ def test_sweep_load_check_leaves_refused_values_to_the_run(no_runs, tmp_path):
     with pytest.raises(AssertionError, match="run started"):
         main(["sweep", "--scheduler", "serial", "--out", str(tmp_path / "m"), "mu", "--",
               "-1,0.02"])
+
+
+def test_bench_compiles_ahead_under_the_name_the_fmu_imports_its_package():
+    import re
+
+    from gearpair.bench.measure import FMU_BUNDLE
+
+    text = (ROOT / "fmu_src" / "GearPair.py").read_text()
+    assert re.search(r'^BUNDLE = "([^"]+)"', text, re.M).group(1) == FMU_BUNDLE

@@ -350,16 +350,22 @@ def evaluated_terms(wk, cs):
 
 
 @jit
-def stretch_turns(summ, a, b, h):
+def stretch_turns(summ, a, b, h, reach):
     """Record the values at the turning points of the quintic Hermite of ``a`` = (F, F',
     F'') at the start and ``b`` at the end of a stretch of h seconds: Newton on its slope
-    from the turns of the cubic of F and F'."""
+    from the turns of the cubic of F and F', for the turns whose cubic value comes within
+    a hundredth of ``reach`` (far more than the cubic's error at the sample spacing) of a
+    new least or greatest value."""
     f0, d0, e0 = a
     f1, d1, e1 = b
-    r1, r2, _c, _d = cubic_turns(f0, d0, f1, d1, h)
+    r1, r2, c, d = cubic_turns(f0, d0, f1, d1, h)
+    margin = 0.01 * reach
     for k in range(2):
         th = r1 if k == 0 else r2
         if not (th > 0.0):  # nan: none
+            continue
+        p = f0 + th * (h * d0 + th * (c + th * d))
+        if p + margin <= summ[O_FMAX] and p - margin >= summ[O_FMIN]:
             continue
         for _it in range(4):
             _p, p1, p2 = quintic(f0, d0, e0, f1, d1, e1, h, th)
@@ -382,4 +388,4 @@ def stretch_extremes(summ, a, b, h):
     reach = h * (QUINTIC_REACH_1 * (abs(a[1]) + abs(b[1]))
                  + QUINTIC_REACH_2 * h * (abs(a[2]) + abs(b[2])))
     if h > 0.0 and could_beat(summ, a[0], b[0], reach):
-        stretch_turns(summ, a, b, h)
+        stretch_turns(summ, a, b, h, reach)

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..engine import CONTACT_BACK, CONTACT_SEPARATED, CONTACT_SLIP, CONTACT_STICK
-from ..jitcache import jit, jit_inline
+from ..jitcache import jit, jit_hot, jit_inline
 from .contact import (
     active_at,
     evaluate,
@@ -162,18 +162,19 @@ def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
     return t, t_knot
 
 
-@jit
-def piece(md, wk, hs, nact, tb, lti):
-    """Integrate one contact state from clock[T_T] towards tb; stop at the first switch.
-
-    ``lti``: None for an engine without the exact propagator (numba then prunes its branch,
-    so the propagator is compiled only for engines that use it), else True (flag I_LTI).
-    Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
-    """
+@jit_inline
+def piece_at(hs, nact):
+    """The `Piece` starting at the current state with the ``nact`` pairs of `Work.active`."""
     st = hs.clock
-    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
-    if lti is not None:  # no friction: only the separation events, set up there
-        return piece_lti(md, wk, pc, hs, tb)
+    return Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
+
+
+@jit_hot
+def piece(md, wk, hs, nact, tb):
+    """Integrate one contact state from clock[T_T] towards tb by Runge-Kutta steps; stop at
+    the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
+    """
+    pc = piece_at(hs, nact)
     if start_checks(md, wk, pc, hs) != 0:
         return 1
     h, t_knot = first_step(md, wk, pc, hs, tb)
@@ -183,7 +184,7 @@ def piece(md, wk, hs, nact, tb, lti):
         if status <= 0:
             return status
         wk.summary[O_NSTEPS] += 1.0
-        st[T_H] = h
+        hs.clock[T_H] = h
         hit, nf, th_prev, th_hit = scan_step(md, wk, pc, hs, sp)
         if hit:
             locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit)
@@ -191,6 +192,14 @@ def piece(md, wk, hs, nact, tb, lti):
         t, t_knot = accept_step(md, wk, pc, hs, sp, h, t_knot, tb)
         if sp.last:
             return 0
+
+
+@jit
+def piece_exact(md, wk, hs, nact, tb):
+    """`piece` by the exact propagator (`lti.piece_lti`; no friction: only the separation
+    events). A function of its own, so that `piece` is compiled once for both kinds of
+    engine and the propagator only for the engines that use it (`segment`)."""
+    return piece_lti(md, wk, piece_at(hs, nact), hs, tb)
 
 
 @jit
@@ -215,8 +224,7 @@ def book_pair_change(md, wk, hs, nact):
     for i in range(nprev):
         xi = pair_xi(md.par, st[T_S], hs.prev_active[i])
         km_before += pair_k(md, xi, xi, nprev)
-    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
-    evaluate(md, wk, pc, st[T_S], st[T_S], y, hs.dirs, hs.stuck)
+    evaluate(md, wk, piece_at(hs, nact), st[T_S], st[T_S], y, hs.dirs, hs.stuck)
     y[15] += 0.5 * (sc[S_KM] - km_before) * sc[S_COMP] ** 2
 
 
@@ -247,7 +255,10 @@ def segment(md, wk, hs, tb, lti):
     nact = segment_start(md, wk, hs, tb)
     summ = wk.summary
     while hs.clock[T_T] < tb:
-        r = piece(md, wk, hs, nact, tb, lti)
+        if lti is None:  # numba prunes the other branch for the type of lti
+            r = piece(md, wk, hs, nact, tb)
+        else:
+            r = piece_exact(md, wk, hs, nact, tb)
         if r < 0:
             summ[O_STATUS] = STATUS_STEP
             return
@@ -332,7 +343,7 @@ def next_boundary(md, wk, hs, noff, span, last_b):
     return tb, ib, bb, False
 
 
-@jit
+@jit_inline
 def advance(md, wk, hs, t_end, torque, speed, lti):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
     st, summ = hs.clock, wk.summary
@@ -372,8 +383,7 @@ def eval_now(md, wk, hs):
     """Evaluate at the current state (active set of the last segment); returns nact."""
     st = hs.clock
     nact = current_active(md, wk, hs)
-    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
-    evaluate(md, wk, pc, st[T_S], st[T_S], hs.y, hs.dirs, hs.stuck)
+    evaluate(md, wk, piece_at(hs, nact), st[T_S], st[T_S], hs.y, hs.dirs, hs.stuck)
     return nact
 
 
@@ -392,7 +402,7 @@ def contact_state(wk, hs, nact):
     return state
 
 
-@jit
+@jit_hot
 def outputs_now(md, wk, hs):
     """`Outputs` at the current state into ``wk.outputs`` (compiled: the FMU reads them
     every step)."""

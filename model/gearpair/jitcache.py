@@ -325,7 +325,7 @@ def load_engine() -> dict:
     eng.energy()
     eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0)
     eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0, 10.0 / 2.4)
-    # the exact propagator is compiled only for the engines that use it (`fast.loop.piece`)
+    # the exact propagator is compiled only for the engines that use it (`fast.loop.segment`)
     effects = importlib.import_module(_PACKAGE + ".effects")
     lti = fast.FastEngine(effects=effects.Effects(friction="off", stiffness="constant"))
     lti.reset(torque=1000.0, speed=10.0)

@@ -98,7 +98,7 @@ from .switching import end_piece, settle, speed_change, switch
 from .tableaux import RK_A, RK_NS
 
 
-@jit_inline
+@jit_hot
 def start_checks(md, wk, pc, hs):
     """Events at the start of a piece, and the switches due there; returns 1 after one.
 
@@ -169,7 +169,7 @@ def piece_at(hs, nact):
     return Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
 
 
-@jit_hot
+@jit
 def piece(md, wk, hs, nact, tb):
     """Integrate one contact state from clock[T_T] towards tb by Runge-Kutta steps; stop at
     the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
@@ -345,7 +345,14 @@ def next_boundary(md, wk, hs, noff, span, last_b):
 
 @jit_inline
 def advance(md, wk, hs, t_end, torque, speed, lti):
-    """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
+    """ReferenceEngine.advance: segments between the known boundaries, then t_end.
+
+    ``lti``: None for an engine without the exact propagator (numba then compiles no
+    `piece_exact`), else True (flag I_LTI). Inlined into the two entry points that step
+    (`advance_entry`, `run_grid`): a compiled function of its own would be optimized by LLVM
+    once more with everything it calls, and the grid would pass the records by value per
+    point.
+    """
     st, summ = hs.clock, wk.summary
     for i in range(N_OUT):
         summ[i] = 0.0

@@ -198,7 +198,7 @@ def plan_step(md, pc, t, h, t_knot, tb):
     return Step(t, hh, tn, si, last, at_knot)
 
 
-@jit_inline
+@jit_hot
 def try_step(md, wk, pc, hs, t, h, t_knot, tb):
     """Attempt steps from t until one passes the error test.
 

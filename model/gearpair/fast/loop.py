@@ -169,7 +169,7 @@ def piece_at(hs, nact):
     return Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
 
 
-@jit
+@jit_hot
 def piece(md, wk, hs, nact, tb):
     """Integrate one contact state from clock[T_T] towards tb by Runge-Kutta steps; stop at
     the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.

@@ -425,18 +425,39 @@ def _load_interface(staging: Path, script: Path):
     return mod, mod.interface(gp)
 
 
-def _add_compiled_engine(package: Path, import_name: str) -> None:
+def _stderr(msg: str) -> None:
+    print(f"build_fmu: {msg}", file=sys.stderr, flush=True)
+
+
+def _add_compiled_engine(package: Path, import_name: str, progress=_stderr) -> None:
     """Resources hook: the fast engine compiled for a portable CPU, in the bundled package's
     ``_compiled`` folder (`gearpair.shipped`), so that a first instantiation with the
     Python, numba and numpy versions of this build loads it instead of compiling."""
-    if importlib.import_module(import_name + ".shipped").ship(package, import_name) is None:
-        print("build_fmu: numba is not installed: the FMU ships no compiled engine",
-              file=sys.stderr)
+    shipped = importlib.import_module(import_name + ".shipped")
+    target, _ = shipped.portable_target()
+    cache = shipped.user_cache_dir()
+    where = f" kept in {cache}/portable-{target}" if cache else ""
+    # the one slow step of a build: say what it is before a silence of minutes
+    progress(f"compiling the fast engine that the FMU ships, for {target} CPUs: a few "
+             f"minutes the first time, seconds when the compiled code{where} matches the "
+             "engine's sources")
+    t0 = time.perf_counter()
+    manifest = shipped.ship(package, import_name)
+    if manifest is None:
+        progress("numba is not installed: the FMU ships no compiled engine")
+        return
+    how = "compiled" if manifest.get("compiled", {}).get("source") == "compiled" else \
+        "taken from the cache"
+    progress(f"fast engine {how} in {time.perf_counter() - t0:.0f} s "
+             f"({manifest.get('files', 0)} files)")
 
 
 def build(out: str | Path = "dist", package: str | Path = PACKAGE,
-          script: str | Path = SCRIPT) -> Path:
-    """Build ``<out>/GearPair.fmu`` and return its path."""
+          script: str | Path = SCRIPT, progress=_stderr) -> Path:
+    """Build ``<out>/GearPair.fmu`` and return its path.
+
+    ``progress`` gets one line per step (default: printed to stderr as ``build_fmu: ...``);
+    compiling the engine the FMU ships takes a few minutes once per engine source."""
     from pythonfmu.builder import FmuBuilder
 
     out, package, script = Path(out).resolve(), Path(package).resolve(), Path(script).resolve()
@@ -446,17 +467,19 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
     saved_path, saved_modules = list(sys.path), set(sys.modules)
     try:
         with tempfile.TemporaryDirectory(prefix="gearpair_fmu_") as tmp:
+            progress(f"staging {package.name} and {script.name}")
             staging = Path(tmp) / "resources"
             staging.mkdir()
             shutil.copytree(package, staging / "gearpair",
                             ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo"))
             (staging / "requirements.txt").write_text(REQUIREMENTS)
             mod, spec = _load_interface(staging, script)
-            _add_compiled_engine(staging / "gearpair", mod.BUNDLE)
+            _add_compiled_engine(staging / "gearpair", mod.BUNDLE, progress)
             docs = Path(tmp) / "documentation"
             docs.mkdir()
             (docs / "index.html").write_text(render_documentation(spec, mod.CHOICES),
                                              encoding="utf-8")
+            progress("packing the FMU with pythonfmu")
             fmu = FmuBuilder.build_FMU(
                 script, dest=out / "GearPair.fmu",
                 project_files=[staging / "gearpair", staging / "requirements.txt"],
@@ -467,6 +490,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             with zipfile.ZipFile(fmu) as z:
                 xml = z.read("modelDescription.xml")
             _rewrite_zip(fmu, {"modelDescription.xml": complete_model_description(xml, spec)})
+            progress(f"compiling the FMU's C layer ({Path(c_compiler()).name})")
             add_c_layer(fmu, lo_open={v["name"] for v in spec if v["lo_open"]},
                         choices=mod.CHOICES)
     finally:

@@ -36,6 +36,12 @@ from test_hard_cases import (  # noqa: E402
 from gearpair import Effects, GearParams, StiffnessSpec  # noqa: E402
 from gearpair.fast import FastEngine  # noqa: E402
 
+# The strategies draw masses, inertias and tooth numbers independently (the physics must hold
+# for any valid data), so some examples keep a Table 1 body with other teeth: the warning for
+# that user slip is expected here, and only here; any other warning still shows.
+pytestmark = pytest.mark.filterwarnings(
+    r"ignore:.*are Table 1's values, but:gearpair.geometry.GearDataWarning")
+
 SETTINGS = settings(max_examples=40, deadline=None, derandomize=True, print_blob=True,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 

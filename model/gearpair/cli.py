@@ -91,31 +91,61 @@ def _changed(p: GearParams) -> dict[str, float]:
     return {k: v for k, v in asdict(p).items() if v != getattr(d, k)}
 
 
+def model_description(effects: Effects) -> tuple[str, tuple[str, ...]]:
+    """The linear models a run with ``effects`` moves through, in words, and their names:
+    ``slip`` always (Eqs. 4-7, with the mean mesh stiffness; friction does not enter the
+    stiffness), ``stick`` (Eq. 22) only with ``friction = "stick_slip"``, the only law
+    under which teeth stick."""
+    dof = ("torsional (u1, u2; rigid supports)" if effects.dof == "torsional"
+           else "6-DOF (x, y, u of both gears)")
+    if effects.friction == "stick_slip":
+        return (f"{dof}, friction stick_slip, sliding {effects.sliding}: the slip and "
+                "stick models", ("slip", "stick"))
+    why = "friction off" if effects.friction == "off" else \
+        f"friction {effects.friction}, which never sticks"
+    return f"{dof}, {why}: the slip model only (teeth never stick)", ("slip",)
+
+
 def _modes(args) -> int:
     if args.scene:
         from .scenes import load_scene
 
-        if args.dof is not None or args.sliding is not None:
-            raise ValueError("--dof, --sliding: set these in the scene file's [effects]")
+        if args.dof is not None or args.sliding is not None or args.friction is not None:
+            raise ValueError("--dof, --sliding, --friction: set these in the scene file's "
+                             "[effects]")
         scene = load_scene(args.scene)
         base, effects = scene.params, scene.effects
+        source = f"scene {scene.name}"
     else:
-        effects = Effects(stiffness="constant", dof=args.dof or "full",
-                          sliding=args.sliding or "paper",
-                          friction="stick_slip" if args.dof != "torsional" else "nominal")
+        dof = args.dof or "full"
+        sliding = args.sliding or "paper"
+        # the torsional model sticks only with full sliding (`Effects`)
+        friction = args.friction or ("nominal" if dof == "torsional" and sliding == "paper"
+                                     else "stick_slip")
+        effects = Effects(stiffness="constant", dof=dof, sliding=sliding, friction=friction)
         base = GearParams()
+        source = "command line"
     if args.mu is not None:
         if any(i.partition("=")[0].strip() == "mu" for i in args.set):
             raise ValueError("give --mu or --set mu=..., not both")
         args.set = [*args.set, f"mu={args.mu}"]
     p = gear_from_args(args, base, effects)
-    out = {}
+    words, which_models = model_description(effects)
+    free = [i for i, n in enumerate(SLIP_NAMES) if effects.dof == "full" or n in ("u1", "u2")]
+    names = [SLIP_NAMES[i] for i in free]
+    out: dict = {"model": {"source": source, "dof": effects.dof,
+                           "friction": effects.friction, "sliding": effects.sliding,
+                           "models": list(which_models), "description": words}}
     for which in ("slip", "stick"):
+        if which not in which_models:
+            out[which] = None  # the run never enters this model
+            continue
         f, shapes = modes(p, which, effects=replace(effects, stiffness=StiffnessSpec("constant")))
         out[which] = {
             "frequencies_hz": [round(float(x), 6) for x in f],
-            "coordinates": list(SLIP_NAMES),
-            "mode_shapes": [[round(float(v), 6) for v in shapes[:, i]] for i in range(len(f))],
+            "coordinates": names,
+            "mode_shapes": [[round(float(shapes[k, i]), 6) for k in free]
+                            for i in range(len(f))],
         }
     out["params"] = asdict(p)
     if args.json:
@@ -124,10 +154,11 @@ def _modes(args) -> int:
     changed = _changed(p)
     print("gear data: Table 1" + (" except " + ", ".join(f"{k} = {v:.6g}" for k, v in
                                                          changed.items()) if changed else ""))
-    for which in ("slip", "stick"):
+    print(f"model ({source}): {words}")
+    for which in which_models:
         d = out[which]
         print(f"{which} model: natural frequencies (Hz) and mode shapes (largest component 1)")
-        print("  mode  f (Hz)     " + "  ".join(f"{n:>7s}" for n in SLIP_NAMES))
+        print("  mode  f (Hz)     " + "  ".join(f"{n:>7s}" for n in names))
         for i, f in enumerate(d["frequencies_hz"]):
             row = "  ".join(f"{v:7.3f}" for v in d["mode_shapes"][i])
             print(f"  {i + 1:4d}  {f:9.3f}  {row}")
@@ -196,31 +227,31 @@ def _scene_from_file(args):
 
 
 def _check_outputs(args) -> None:
-    """Refuse what would fail only after the run: create the folders of --out and --plot
-    (as ``sweep --out`` does) and check the figure format."""
-    from pathlib import Path
+    """Refuse what would fail only after the run: --out and --plot must be writable files
+    (their folders are created, as ``sweep --out`` does) and the figure format known."""
+    from .writable import check_writable
 
     for flag, path in (("--out", args.out), ("--plot", args.plot)):
-        if not path:
-            continue
-        p = Path(path)
-        if p.is_dir():
-            raise ValueError(f"{flag} {path}: is a folder; give a file name")
-        try:
-            p.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ValueError(f"{flag} {path}: cannot create its folder ({exc.strerror})") \
-                from None
+        if path is not None:
+            check_writable(flag, path)
     if args.plot:
-        try:
-            from matplotlib.backend_bases import FigureCanvasBase
-        except ImportError:  # reported by Trajectory.plot after the run
-            return
-        kinds = FigureCanvasBase.get_supported_filetypes()
-        suffix = Path(args.plot).suffix.lstrip(".").lower()
-        if suffix not in kinds:
-            raise ValueError(f"--plot {args.plot}: unknown figure format {suffix!r}; allowed "
-                             + ", ".join(sorted(kinds)))
+        check_figure_format("--plot", args.plot)
+
+
+def check_figure_format(flag: str, path: str) -> None:
+    """``ValueError`` naming ``flag`` if matplotlib cannot write the suffix of ``path``
+    (nothing is checked without matplotlib: the plot reports that after the run)."""
+    from pathlib import Path
+
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        return
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lstrip(".").lower()
+    if suffix not in kinds:
+        raise ValueError(f"{flag} {path}: unknown figure format {suffix!r}; allowed "
+                         + ", ".join(sorted(kinds)))
 
 
 def _schedule_text(f, unit: str, scale: float = 1.0) -> str:
@@ -269,6 +300,11 @@ def _simulate(args) -> int:
     scene, t_from, extra = (_scene_from_file if args.scene else _scene_from_flags)(args)
     engine = args.engine or scene.solver.engine
     _check_outputs(args)
+    if engine == "fmu":  # the other engines warn in `gearpair.results.simulate`
+        from .results import _check_load
+
+        _check_load(None, scene.params, scene.inputs.torque,
+                    np.linspace(0.0, scene.t_end, 1001))
     outside = _outside_model(scene)
     if outside:  # run it (a user may want to see it), but never as if it were valid
         print(f"gearpair: warning: {outside}", file=sys.stderr)
@@ -362,9 +398,11 @@ def build_parser() -> argparse.ArgumentParser:
     m = sub.add_parser("modes", help="natural frequencies and mode shapes (Figs. 5-6)",
                        description="Natural frequencies and mode shapes of the slip (Eqs. "
                        "4-7) and stick (Eq. 22) models with the mean mesh stiffness, for "
-                       "Table 1's gears, a scene's [gear] or your own data.")
+                       "Table 1's gears, a scene's [gear] or your own data: the models the "
+                       "run would move through (its dof and friction; the stick model only "
+                       "with stick_slip friction).")
     m.add_argument("scene", nargs="?", help="scene file (TOML, docs/scenes.md) whose [gear] "
-                   "and [effects] dof/sliding to use; default: Table 1")
+                   "and [effects] dof/sliding/friction to use; default: Table 1")
     m.add_argument("--json", action="store_true", help="print frequencies (Hz), mode shapes "
                    "and the gear data used as JSON")
     m.add_argument("--mu", type=float, help="coefficient of friction, [0, 1] (accepted for "
@@ -373,6 +411,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "default full")
     m.add_argument("--sliding", choices=SLIDING_VARIANTS, help="sliding velocity that the "
                    "stick model ties: paper (Eq. 12) or full; default paper")
+    m.add_argument("--friction", choices=FRICTION_LAWS, help="friction law of the run: "
+                   "only stick_slip adds the stick model; default stick_slip (nominal with "
+                   "--dof torsional and paper sliding, which cannot stick)")
     _add_gear_options(m)
     s = sub.add_parser("simulate", help="run a scene file (or one operating point given by "
                        "flags) and summarize",

@@ -65,8 +65,11 @@ class StepSummary:
     stick_fraction, separation_fraction : fraction (0..1) of the step spent in stick / with
         no flank in contact (contact loss), from the located switching instants (exact, not
         sampled)
-    mesh_force_max : N, peak elastic mesh force in the step (over the solver's steps and
-        dense-output samples)
+    mesh_force_max : N, greatest elastic mesh force in the step: the extreme of the
+        trajectory, not of samples (the values at every integrator step's end, switch and
+        segment boundary, and each step's turning points located from the step's own end
+        values and time derivatives, refined on its continuous extension), so it does not
+        depend on the output interval beyond the integration tolerance
     n_events : number of state switches located in the step
     n_steps : number of internal integrator steps
     back_fraction : fraction (0..1) of the step on the back flank (contact under a negative
@@ -75,8 +78,7 @@ class StepSummary:
         over every integrator step (the Runge-Kutta quadrature of the stage values, Gauss
         points on the continuous extension up to a switch; the exact propagator's own
         stretches by the slope-corrected trapezoid), divided by the step length
-    mesh_force_min : N, least elastic mesh force in the step (the samples of
-        ``mesh_force_max``)
+    mesh_force_min : N, least elastic mesh force in the step, located as ``mesh_force_max``
     """
 
     t_start: float

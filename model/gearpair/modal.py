@@ -54,6 +54,10 @@ def stick_matrices(model: Model, xi: float | None = None, km: float | None = Non
     s1m, s2m = float(s1m), float(s2m)
     km = model.stiff.km_mean if km is None else km
     w = model.friction_directions(np.array([s1m]), np.array([s2m]))[0]
+    free = model.free_dofs
+    if len(free) < 6 and model.effects.sliding == "paper":
+        # the torsional model has no x1, x2 for Eq. (19) to tie (as `Effects` refuses it)
+        raise ValueError("the torsional model's stick state needs sliding = 'full'")
     if model.effects.sliding == "paper":
         T = np.zeros((6, 5))
         T[X1, 0] = T[X2, 0] = 1.0  # x2 moves with x1, Eq. (19)
@@ -65,8 +69,11 @@ def stick_matrices(model: Model, xi: float | None = None, km: float | None = Non
         P[3, 4] = 1.0
         P[4, 5], P[4, X2] = 1.0, -s2m / p.rb2
     else:
-        T = null_space(w[None, :])           # full sliding: w . q' = nominal
-        P = null_space(w[None, :]).T
+        # full sliding: w . q' = nominal, over the free coordinates only (torsional: rigid
+        # supports leave u1, u2, so a stuck pair has one degree of freedom)
+        T = np.zeros((6, len(free) - 1))
+        T[free] = null_space(w[None, free])
+        P = T.T
     K = model.Kb + km * np.outer(G, G)
     C = model.C + p.cm * np.outer(G, G)
     return P @ model.M @ T, P @ C @ T, P @ K @ T, P, T

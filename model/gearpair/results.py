@@ -243,6 +243,24 @@ def _ratio(eng: Engine, params: GearParams | None) -> float:
     return float(model.p.ratio if model is not None else (params or GearParams()).ratio)
 
 
+def _check_load(eng: Engine, params: GearParams | None, fT, grid: np.ndarray) -> None:
+    """Warn (`GearDataWarning`, before the run) when the largest torque of the run loads the
+    teeth beyond what steel gears carry (`gearpair.geometry.load_implausibility`). A plain
+    function is sampled at up to 1001 points of the grid; a schedule (``sample``) at all."""
+    from .geometry import warn_implausible_load
+
+    model = getattr(eng, "model", None)
+    p = model.p if model is not None else (params or GearParams())
+    if hasattr(fT, "sample"):
+        torques = fT.sample(grid)
+    else:
+        pick = grid if len(grid) <= 1001 else grid[np.linspace(0, len(grid) - 1, 1001,
+                                                               dtype=np.int64)]
+        torques = np.fromiter((fT(t) for t in pick), float, len(pick))
+    # the caller of `simulate` (or of `Scene.run`) is where the torque came from
+    warn_implausible_load(p, float(np.max(np.abs(torques))), stacklevel=3)
+
+
 def simulate(params: GearParams | None = None, effects: Effects | None = None,
              t_end: float = 0.2, torque: Input | None = None, speed: Input | None = None,
              dt: float = 1e-4, engine: str | Engine = "fast", t0: float = 0.0,
@@ -276,6 +294,7 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
     n = int(round((t_end - t0) / dt))
     grid = t0 + dt * np.arange(n + 1)
     grid[-1] = t_end
+    _check_load(eng, params, fT, grid)
     if hasattr(eng, "run_grid") and not isinstance(engine, Engine):
         # Load the compiled recorder (from the on-disk cache; the first call in a process
         # takes 0.1-1 s) on a throwaway engine, so that it counts as start-up, not run time.

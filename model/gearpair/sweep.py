@@ -797,7 +797,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "ends included), in the unit of PARAM")
     s.add_argument("--out", default="sweep", metavar="PREFIX", help="output prefix: writes "
                    "PREFIX.csv, PREFIX_poincare.csv, PREFIX.json, PREFIX.png (its folder is "
-                   "created); default sweep")
+                   "created; checked for writing before the run); default sweep")
     s.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="address of a running dask scheduler (tcp://host:port); 'serial' runs "
                    "in this process; default: a local cluster of --workers processes")
@@ -872,11 +872,26 @@ def main(args) -> int:
     # Check names and the held values here, so a typo fails before a cluster starts.
     settings.inputs("speed_rpm", settings.speed_rpm)
     values = parse_values(args.values)
-    try:  # the output folder before the run, not after it
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out {args.out}: cannot create its folder ({exc.strerror})") \
-            from None
+    # the heaviest tooth load of the sweep, once, before the run (a GearDataWarning line)
+    from .geometry import unit_load, warn_implausible_load
+
+    points = []
+    for v in values:
+        try:
+            points.append(settings.inputs(args.param, v))
+        except ValueError:  # refused at its run: an `invalid` record, not an error here
+            pass
+    if points:
+        p, _, torque, _ = max(points, key=lambda pt: unit_load(pt[0], pt[2]))
+        warn_implausible_load(p, torque)
+    # every output file before the run, not after it (`SweepResult.write` names them)
+    from .writable import check_writable
+
+    prefix = Path(args.out)
+    names = [prefix.with_suffix(".csv"), Path(f"{prefix}_poincare.csv"),
+             prefix.with_suffix(".json")] + ([] if args.no_plot else [prefix.with_suffix(".png")])
+    for name in names:
+        check_writable("--out", name, shown=args.out)
     res = run_sweep(args.param, values, settings, scheduler=args.scheduler,
                     workers=args.workers, retries=args.retries, progress=not args.quiet)
     files = res.write(args.out, plot=not args.no_plot)

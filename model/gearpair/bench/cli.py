@@ -21,7 +21,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="work-precision, FMU cost and cost-per-effect tables "
                        "(docs/bench.md)", description=DESCRIPTION)
     size = p.add_mutually_exclusive_group()
-    size.add_argument("--quick", action="store_true", help="tiny horizons, for tests")
+    size.add_argument("--quick", action="store_true", help="tiny horizons, for tests "
+                      "(about 20 s; the first run after an engine change compiles the engine "
+                      "and the FMU's copy of it, minutes, and says so)")
     size.add_argument("--full", action="store_true", help="longer runs, more tolerances, "
                       "memory (tens of minutes)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
@@ -64,6 +66,12 @@ def main(argv: list[str] | argparse.Namespace | None = None) -> int:
         add_parser(ap.add_subparsers(dest="cmd", required=True))
         args = ap.parse_args(["bench", *(sys.argv[1:] if argv is None else argv)])
     s = settings_from(args)
+    if args.plot:  # before minutes of measuring, not after them
+        from ..cli import check_figure_format
+        from ..writable import check_writable
+
+        check_writable("--plot", args.plot)
+        check_figure_format("--plot", args.plot)
     t0 = time.perf_counter()
 
     def progress(msg: str) -> None:

@@ -179,10 +179,11 @@ def _worker(job: dict, env: dict | None = None, timeout: float = 3600.0) -> dict
         return json.loads(of.read_text())
 
 
-def build_fmus(outdir: str | Path) -> tuple[Path, Path]:
+def build_fmus(outdir: str | Path, progress: Progress | None = None) -> tuple[Path, Path]:
     """Build GearPair.fmu (build_fmu.build, current sources) and the no-op slave with the
     same variables (its ``interface.json`` is read from the GearPair modelDescription) and
-    the same C layer (``build_fmu.add_c_layer``) over pythonfmu's library."""
+    the same C layer (``build_fmu.add_c_layer``) over pythonfmu's library. ``progress``
+    gets the build's steps (default: build_fmu.py's lines on stderr)."""
     import shutil
 
     import fmpy
@@ -193,7 +194,10 @@ def build_fmus(outdir: str | Path) -> tuple[Path, Path]:
                                                   ROOT / "build_fmu.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    gearpair_fmu = Path(mod.build(outdir))
+    if progress is None:
+        gearpair_fmu = Path(mod.build(outdir))
+    else:
+        gearpair_fmu = Path(mod.build(outdir, progress=lambda m: progress("build_fmu: " + m)))
     md = fmpy.read_model_description(str(gearpair_fmu))
     iface = [{"name": v.name, "type": v.type, "causality": v.causality,
               "variability": v.variability, "description": v.description,

@@ -199,8 +199,9 @@ def prepare_scan(md, wk, pc, hs, sp, nsub):
 
 @jit_hot
 def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
-    """Sample the step at ks / nsub on the extension (rows ``nf``); track the peak mesh
-    force. Returns (hit, theta of the last sample before the fall, theta of the fall)."""
+    """Sample the step at ks / nsub on the extension (rows ``nf``); record the mesh force
+    at the samples before a fall. Returns (hit, theta of the last sample before the fall,
+    theta of the fall)."""
     g, R, ng = wk.g, wk.dense, n_events(md, pc.nact, pc.cs)
     summ = wk.summary
     th_prev = 0.0
@@ -218,12 +219,15 @@ def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
             th = ks / nsub
             interp(md, R, nf, th, wk.ytmp)
             fm = events_light(md, wk, pc, hs, sp.t + th * sp.hh, wk.ytmp, g)
-        if fm > summ[O_FMAX]:
-            summ[O_FMAX] = fm
-        if fm < summ[O_FMIN]:
-            summ[O_FMIN] = fm
-        if falls(wk, ng):
+        if falls(wk, ng):  # the force there is the old state's, past the switch
             return True, th_prev, th
+        if ks == nsub or nf > 3:
+            # the step's end, or a point of its continuous extension (not of DOP853's cheap
+            # Hermite, which can overshoot): `extremes` finds the turns in between
+            if fm > summ[O_FMAX]:
+                summ[O_FMAX] = fm
+            if fm < summ[O_FMIN]:
+                summ[O_FMIN] = fm
         for e in range(ng):
             wk.gprev[e] = g[e]
         th_prev = th

@@ -29,6 +29,7 @@ from .contact import (
     param_rate,
 )
 from .events import events_at, locate_and_switch, scan_step
+from .extremes import step_ends, step_extremes
 from .layout import (
     FR_NOMINAL,
     FR_STICK,
@@ -174,21 +175,27 @@ def piece(md, wk, hs, nact, tb):
     """Integrate one contact state from clock[T_T] towards tb by Runge-Kutta steps; stop at
     the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
     """
+    st = hs.clock
     pc = piece_at(hs, nact)
     if start_checks(md, wk, pc, hs) != 0:
         return 1
     h, t_knot = first_step(md, wk, pc, hs, tb)
     t = pc.t0
+    d0 = np.nan  # dF/dt at the next step's start, once known (`step_ends`)
     while True:
         status, h, t_knot, sp = try_step(md, wk, pc, hs, t, h, t_knot, tb)
         if status <= 0:
             return status
         wk.summary[O_NSTEPS] += 1.0
-        hs.clock[T_H] = h
+        st[T_H] = h
+        ends = step_ends(md, wk, pc, hs, sp, d0)
         hit, nf, th_prev, th_hit = scan_step(md, wk, pc, hs, sp)
         if hit:
             locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit)
+            step_extremes(md, wk, pc, hs, sp, nf, ends, (st[T_T] - sp.t) / sp.hh)
             return 1
+        step_extremes(md, wk, pc, hs, sp, nf, ends, 1.0)
+        d0 = np.nan if sp.at_knot else ends[3]
         t, t_knot = accept_step(md, wk, pc, hs, sp, h, t_knot, tb)
         if sp.last:
             return 0

@@ -16,6 +16,7 @@ import numpy as np
 from ..jitcache import jit, jit_hot, jit_inline
 from .contact import n_events, pair_k, pair_xi, rhs, solve_small
 from .events import events_at, falls, illinois, illinois_point
+from .extremes import stretch_extremes
 from .layout import (
     I_TORS,
     J_REL,
@@ -36,6 +37,7 @@ from .layout import (
     P_SPACING,
     P_TTOL,
     T_S,
+    T_T,
     Y_A,
     Y_AD,
     Z_A,
@@ -545,11 +547,17 @@ def lti_march(md, wk, pc, hs, lp, tb):
             fm = events_at(md, wk, pc, hs, tn, wk.ytmp, wk.g)
             if falls(wk, ng):
                 lti_switch(md, wk, pc, hs, lp, t, tn, jumped)
+                if not jumped:  # zn: the state at the switch
+                    stretch_extremes(md, wk.summary, wk.lti_mats[lp.slot], z, zn,
+                                     hs.clock[T_T] - t, lp.km, pc.cs)
                 return 1
             if fm > wk.summary[O_FMAX]:
                 wk.summary[O_FMAX] = fm
             if fm < wk.summary[O_FMIN]:
                 wk.summary[O_FMIN] = fm
+            if not jumped:  # a jump is quiet: within rtol of the static force
+                stretch_extremes(md, wk.summary, wk.lti_mats[lp.slot], z, zn, tn - t, lp.km,
+                                 pc.cs)
             wk.summary[O_FINT] += lti_fint(md.par, wk.lti_mats[lp.slot], z, zn, tn - t, lp.km,
                                            pc.cs, jumped)
             for e in range(ng):

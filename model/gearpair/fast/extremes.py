@@ -1,0 +1,294 @@
+"""Extremes of the mesh force between the points where it is evaluated (compiled).
+
+`StepSummary.mesh_force_min` and ``mesh_force_max`` are the extremes of the trajectory, not
+of samples: the force at step ends, switches and segment boundaries is recorded as it is,
+and in between a step (a Runge-Kutta step or an exact-propagator stretch) is modelled from
+its own end values and time derivatives: a cubic Hermite from F and dF/dt for a Runge-Kutta
+step, a quintic from F, F' and F'' for an exact stretch (whose A gives F'' for free). Only
+when that model's reach could beat the running least or greatest value are its turning
+points sought; a Runge-Kutta step's are then refined on the method's continuous extension
+(a few Newton steps on a three-point parabola). Most steps cost a few flops, and the
+extremes do not depend on where steps end (the output interval), to integration accuracy.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..jitcache import jit, jit_inline
+from .contact import pair_k, pair_k_and_slope, pair_xi
+from .events import extend, interp
+from .layout import (
+    I_METHOD,
+    NZ,
+    O_FMAX,
+    O_FMIN,
+    P_BACK,
+    P_RB1,
+    R_FSTG,
+    S_COMP,
+    S_DDELTA,
+    S_KM,
+    W_DK,
+)
+from .tableaux import RK_NS
+
+# How far a Hermite interpolant strays from its end values, per unit of its end terms:
+# theta (1 - theta)^2 <= 4/27 (cubic slope basis); quintic: theta (1 - theta)^3 (1 + 3 theta)
+# <= 0.198 (slope) and theta^2 (1 - theta)^3 / 2 <= 0.0173 (curvature)
+CUBIC_REACH = 4.0 / 27.0
+QUINTIC_REACH_1 = 0.2
+QUINTIC_REACH_2 = 0.018
+ETA = 1e-3  # half-width (fraction of the step) of the parabola of a Newton refinement
+
+
+@jit_inline
+def could_beat(summ, f0, f1, reach):
+    """Whether a step whose force stays within ``reach`` (N) of its end values f0, f1 could
+    set a new least or greatest value (the running ones in ``summ``)."""
+    return max(f0, f1) + reach > summ[O_FMAX] or min(f0, f1) - reach < summ[O_FMIN]
+
+
+@jit_inline
+def record(summ, f):
+    if f > summ[O_FMAX]:
+        summ[O_FMAX] = f
+    if f < summ[O_FMIN]:
+        summ[O_FMIN] = f
+
+
+@jit_inline
+def cubic_turns(f0, d0, f1, d1, h):
+    """Turning points in (0, 1) of the cubic Hermite p(theta) (p(0) = f0, p(1) = f1,
+    p'(0) = h d0, p'(1) = h d1); nan where there is none. Returns (r1, r2, c, d) with
+    p = f0 + h d0 theta + c theta^2 + d theta^3."""
+    b = h * d0
+    c = 3.0 * (f1 - f0) - h * (2.0 * d0 + d1)
+    d = 2.0 * (f0 - f1) + h * (d0 + d1)
+    r1 = math.nan
+    r2 = math.nan
+    if abs(d) <= 1e-12 * (abs(b) + abs(c)):  # p' = b + 2 c theta
+        if c != 0.0:
+            r1 = -b / (2.0 * c)
+    else:  # p' = b + 2 c theta + 3 d theta^2, roots without cancellation
+        disc = c * c - 3.0 * d * b
+        if disc >= 0.0:
+            q = -(c + math.copysign(math.sqrt(disc), c))
+            r1 = q / (3.0 * d)
+            if q != 0.0:
+                r2 = b / q
+    if not (0.0 < r1 < 1.0):
+        r1 = math.nan
+    if not (0.0 < r2 < 1.0):
+        r2 = math.nan
+    return r1, r2, c, d
+
+
+@jit_inline
+def force_at(md, wk, pc, t, s_idx, yk):
+    """Elastic mesh force km * compression (N) at (t, yk) on the stiffness-table interval of
+    ``s_idx`` (a step's, as its stages use)."""
+    if pc.cs == 1:
+        return 0.0
+    mp = md.par
+    s = pc.s0 + mp[P_RB1] * pc.speed * (t - pc.t0)
+    km = 0.0
+    for i in range(pc.nact):
+        xi = pair_xi(mp, s, wk.active[i])
+        km += pair_k(md, xi, xi + (s_idx - s), pc.nact)
+    comp = yk[1] - yk[4] + yk[2] + yk[5]
+    return km * (comp + mp[P_BACK] if pc.cs == 2 else comp)
+
+
+@jit
+def force_rate(md, wk, pc, t, s_idx, y):
+    """dF/dt (N/s) of the elastic mesh force at (t, y): d km/dt compression + km delta'
+    (the stiffness on the table interval of ``s_idx``)."""
+    if pc.cs == 1:
+        return 0.0
+    mp = md.par
+    v1 = mp[P_RB1] * pc.speed
+    s = pc.s0 + v1 * (t - pc.t0)
+    km = 0.0
+    dkm = 0.0
+    for i in range(pc.nact):
+        xi = pair_xi(mp, s, wk.active[i])
+        k, dk = pair_k_and_slope(md, xi, xi + (s_idx - s), pc.nact)
+        km += k
+        dkm += dk
+    comp = y[1] - y[4] + y[2] + y[5]
+    if pc.cs == 2:
+        comp += mp[P_BACK]
+    return dkm * v1 * comp + km * (y[7] - y[10] + y[8] + y[11])
+
+
+@jit_inline
+def force_rate_evaluated(md, wk, pc):
+    """dF/dt (N/s) at the point ``wk`` was last evaluated at (a step's last stage: its end)."""
+    if pc.cs == 1:
+        return 0.0
+    sc = wk.scal
+    dkm = 0.0
+    for i in range(pc.nact):
+        dkm += wk.pair[W_DK, i]
+    return dkm * md.par[P_RB1] * pc.speed * sc[S_COMP] + sc[S_KM] * sc[S_DDELTA]
+
+
+@jit_inline
+def extension_force(md, wk, pc, sp, nf, th):
+    """The mesh force at fraction ``th`` of step ``sp`` on its continuous extension."""
+    interp(md, wk.dense, nf, th, wk.ytmp)
+    return force_at(md, wk, pc, sp.t + th * sp.hh, sp.si, wk.ytmp)
+
+
+@jit
+def refine_turn(md, wk, pc, sp, nf, th, th_lim, sgn):
+    """Newton steps towards the turning point near ``th`` (sgn 1: a maximum, -1: a minimum)
+    of the force on the step's continuous extension, each from a parabola through three
+    values ETA apart; every value seen is a point of the trajectory and is recorded."""
+    summ = wk.summary
+    if th_lim > 2.0 * ETA:
+        for _it in range(3):
+            tc = min(max(th, ETA), th_lim - ETA)
+            fm = extension_force(md, wk, pc, sp, nf, tc - ETA)
+            fc = extension_force(md, wk, pc, sp, nf, tc)
+            fp = extension_force(md, wk, pc, sp, nf, tc + ETA)
+            record(summ, fm)
+            record(summ, fc)
+            record(summ, fp)
+            curv = fp - 2.0 * fc + fm
+            if not (sgn * curv < 0.0):
+                return
+            step = min(max(-ETA * (fp - fm) / (2.0 * curv), -0.25), 0.25)
+            th = min(max(tc + step, 0.0), th_lim)
+            if abs(step) < 1e-6:
+                break
+    record(summ, extension_force(md, wk, pc, sp, nf, th))
+
+
+@jit
+def refine_turns(md, wk, pc, hs, sp, nf, turns, th_lim):
+    """`refine_turn` for the turning points ``turns`` (theta, sgn; theta nan: none),
+    building the continuous extension first if the scan needed none (``hs.y`` is then
+    still the step's start)."""
+    for k in range(2):
+        th, sgn = turns[k]
+        if not (th > 0.0):
+            continue
+        if nf <= 3:  # none or the cheap Hermite of the state (DOP853's scan)
+            nf = extend(md, wk, pc, hs, sp)
+        refine_turn(md, wk, pc, sp, nf, th, th_lim, sgn)
+
+
+@jit_inline
+def step_ends(md, wk, pc, hs, sp, d0):
+    """(F, dF/dt) at the start and the end of the accepted step ``sp`` (N, N/s), right
+    after its stages (the last one is its end); ``d0``: the start's rate if known (the end
+    of the step before, unless a stiffness-table knot lies between), else nan."""
+    if not (d0 == d0):
+        d0 = force_rate(md, wk, pc, sp.t, sp.si, hs.y)
+    fs = wk.dense[R_FSTG]
+    return fs[0], d0, fs[RK_NS[md.flag[I_METHOD]] - 1], force_rate_evaluated(md, wk, pc)
+
+
+@jit_inline
+def step_extremes(md, wk, pc, hs, sp, nf, ends, th_lim):
+    """Interior extremes of the mesh force over the accepted Runge-Kutta step ``sp`` up to
+    the fraction ``th_lim`` of it (a located switch), into the running least and greatest
+    values of ``wk.summary`` (the step's end values are the scan's).
+
+    ``ends``: `step_ends`; ``nf``: rows of the step's continuous extension in ``wk.dense``.
+    The turning points of the cubic Hermite of F are refined on the extension only when they
+    could beat a running value.
+    """
+    f0, d0, f1, d1 = ends
+    summ = wk.summary
+    h = sp.hh
+    reach = CUBIC_REACH * h * (abs(d0) + abs(d1))
+    if pc.cs == 1 or not could_beat(summ, f0, f1, reach):
+        return
+    r1, r2, c, d = cubic_turns(f0, d0, f1, d1, h)
+    margin = 0.01 * reach  # the cubic's own error: refine a turn this close to a record
+    t1 = (math.nan, 0.0)
+    t2 = (math.nan, 0.0)
+    for k in range(2):
+        r = r1 if k == 0 else r2
+        if not (r < th_lim):  # nan: none
+            continue
+        p = f0 + r * (h * d0 + r * (c + r * d))
+        sgn = -1.0 if 2.0 * c + 6.0 * d * r > 0.0 else 1.0
+        if (p + margin > summ[O_FMAX]) if sgn > 0.0 else (p - margin < summ[O_FMIN]):
+            if k == 0:
+                t1 = (r, sgn)
+            else:
+                t2 = (r, sgn)
+    if t1[0] > 0.0 or t2[0] > 0.0:
+        refine_turns(md, wk, pc, hs, sp, nf, (t1, t2), th_lim)
+
+
+@jit_inline
+def quintic(f0, d0, e0, f1, d1, e1, h, th):
+    """The quintic Hermite of (F, F', F'') at both ends of a stretch of h seconds, at
+    fraction th: its value and first two derivatives in th."""
+    t2 = th * th
+    t3 = t2 * th
+    t4 = t3 * th
+    t5 = t4 * th
+    df = f0 - f1
+    a0, a1 = h * d0, h * d1
+    b0, b1 = h * h * e0, h * h * e1
+    p = (f1 + df * (1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5)
+         + a0 * (th - 6.0 * t3 + 8.0 * t4 - 3.0 * t5) + a1 * (-4.0 * t3 + 7.0 * t4 - 3.0 * t5)
+         + b0 * 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5) + b1 * 0.5 * (t3 - 2.0 * t4 + t5))
+    p1 = (df * (-30.0 * t2 + 60.0 * t3 - 30.0 * t4)
+          + a0 * (1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4)
+          + a1 * (-12.0 * t2 + 28.0 * t3 - 15.0 * t4)
+          + b0 * 0.5 * (2.0 * th - 9.0 * t2 + 12.0 * t3 - 5.0 * t4)
+          + b1 * 0.5 * (3.0 * t2 - 8.0 * t3 + 5.0 * t4))
+    p2 = (df * (-60.0 * th + 180.0 * t2 - 120.0 * t3)
+          + a0 * (-36.0 * th + 96.0 * t2 - 60.0 * t3)
+          + a1 * (-24.0 * th + 84.0 * t2 - 60.0 * t3)
+          + b0 * 0.5 * (2.0 - 18.0 * th + 36.0 * t2 - 20.0 * t3)
+          + b1 * 0.5 * (6.0 * th - 24.0 * t2 + 20.0 * t3))
+    return p, p1, p2
+
+
+@jit_inline
+def exact_terms(md, A, z, km, cs):
+    """F, F', F'' (N, N/s, N/s^2) of an exact stretch at z (z' = A z; F'' from the rows of
+    A z, as `lti.lti_dd`)."""
+    comp = z[1] - z[4] + z[2] + z[5]
+    if cs == 2:
+        comp += md.par[P_BACK]
+    dd = 0.0
+    for m in range(NZ):
+        dd += (A[7, m] - A[10, m] + A[8, m] + A[11, m]) * z[m]
+    return km * comp, km * (z[7] - z[10] + z[8] + z[11]), km * dd
+
+
+@jit
+def stretch_extremes(md, summ, A, z0, z1, h, km, cs):
+    """Interior extremes of the mesh force over the exact stretch z0 -> z1 (h seconds,
+    z' = A z) into the running least and greatest values of ``wk.summary``: the turning
+    points of the quintic Hermite of F, F', F'' at its ends (exact values; error O(h^6),
+    about 1e-8 of the force's swing at the sample spacing). The end values are recorded by
+    the caller; ``summ``: `Work.summary`."""
+    if cs == 1 or not (h > 0.0):
+        return
+    f0, d0, e0 = exact_terms(md, A, z0, km, cs)
+    f1, d1, e1 = exact_terms(md, A, z1, km, cs)
+    reach = h * (QUINTIC_REACH_1 * (abs(d0) + abs(d1))
+                 + QUINTIC_REACH_2 * h * (abs(e0) + abs(e1)))
+    if not could_beat(summ, f0, f1, reach):
+        return
+    r1, r2, _c, _d = cubic_turns(f0, d0, f1, d1, h)
+    for k in range(2):
+        th = r1 if k == 0 else r2
+        if not (th > 0.0):  # nan: none
+            continue
+        for _it in range(4):  # Newton on the quintic's slope from the cubic's turn
+            _p, p1, p2 = quintic(f0, d0, e0, f1, d1, e1, h, th)
+            if p2 == 0.0:
+                break
+            th = min(max(th - p1 / p2, 0.0), 1.0)
+        record(summ, quintic(f0, d0, e0, f1, d1, e1, h, th)[0])

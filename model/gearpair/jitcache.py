@@ -9,7 +9,7 @@ fresh temporary directory (an FMU instantiation) finds the code compiled by an e
 no cache directory can be used, the functions are compiled in memory on first use.
 
 This module must be imported before numba (it sets ``NUMBA_CACHE_DIR``); the engine imports
-`jit` and `jit_inline` from here.
+`jit`, `jit_inline` and `jit_hot` from here.
 """
 
 from __future__ import annotations
@@ -248,7 +248,9 @@ def _engine_cache_class():
 
 
 _ENGINE_CACHE = _engine_cache_class() if CACHE else None
-_OPTIONS = dict(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False)
+# forceinline is set on every function, so none inherits it from the caller being compiled
+_OPTIONS = dict(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False,
+                forceinline=False)
 
 
 def _with_engine_cache(dispatcher):
@@ -269,10 +271,23 @@ def jit(func):
 
 
 def jit_inline(func):
-    """`jit` inlined into its callers at numba IR level: a call between compiled functions
-    passes every array by value with reference counting, which costs more than the
-    arithmetic of the hot helpers."""
+    """`jit` inlined into its callers at numba IR level, for small helpers: a call between
+    compiled functions passes every array of its records by value (some 230 machine words
+    for the three records), which costs more than the arithmetic of a small helper.
+
+    numba copies and types the callee's IR again at every call site, including what the
+    callee itself inlines, so nested inlining of larger functions costs compile time that
+    grows with the square of their size; those are `jit_hot`.
+    """
     return _with_engine_cache(numba.njit(inline="always", **_OPTIONS)(func))
+
+
+def jit_hot(func):
+    """`jit` compiled once as a function of its own that LLVM inlines into every compiled
+    caller (``alwaysinline``), for the larger functions of the hot path: no call passing
+    the records by value, as with `jit_inline`, but typed and compiled once, not at each
+    call site."""
+    return _with_engine_cache(numba.njit(**dict(_OPTIONS, forceinline=True))(func))
 
 
 _LOADED: dict = {}
@@ -310,7 +325,7 @@ def load_engine() -> dict:
     eng.energy()
     eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0)
     eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0, 10.0 / 2.4)
-    # the exact propagator is compiled only for the engines that use it (`fast.loop.piece`)
+    # the exact propagator is compiled only for the engines that use it (`fast.loop.segment`)
     effects = importlib.import_module(_PACKAGE + ".effects")
     lti = fast.FastEngine(effects=effects.Effects(friction="off", stiffness="constant"))
     lti.reset(torque=1000.0, speed=10.0)

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..jitcache import jit, jit_inline
+from ..jitcache import jit, jit_hot, jit_inline
 from .layout import (
     FR_NOMINAL,
     FR_REG,
@@ -361,7 +361,7 @@ def static_friction(md, wk, pc, y, ns):
         pin_supports(sc)
 
 
-@jit
+@jit_hot
 def evaluate(md, wk, pc, s, s_idx, y, dirs, stuck):
     """`equations.evaluate` for one contact state at mesh travel s, into ``wk``.
 
@@ -377,11 +377,6 @@ def evaluate(md, wk, pc, s, s_idx, y, dirs, stuck):
     sc = wk.scal
     for m in range(6):
         sc[S_QDD + m] = md.par[P_MINV + m] * sc[S_F + m]
-
-
-# The right-hand side (6 or 12 calls a Runge-Kutta step) gets its own inlined copy of the
-# contact-state evaluation; the other callers share the compiled function (compile time).
-evaluate_inline = jit_inline(evaluate.py_func)
 
 
 @jit_inline
@@ -449,13 +444,13 @@ def param_rate(md, wk, pc, s_idx, y):
     return 0.5 * dkm * mp[P_RB1] * pc.speed * delta * delta
 
 
-@jit
+@jit_hot
 def rhs(md, wk, pc, hs, t, s_idx, y, dy):
     """Right-hand side of one contact state with the four energy quadratures."""
     mp, pw, sc = md.par, wk.pair, wk.scal
     rb1 = mp[P_RB1]
     s = pc.s0 + rb1 * pc.speed * (t - pc.t0)
-    evaluate_inline(md, wk, pc, s, s_idx, y, hs.dirs, hs.stuck)
+    evaluate(md, wk, pc, s, s_idx, y, hs.dirs, hs.stuck)
     for m in range(6):
         dy[m] = y[6 + m]
         dy[6 + m] = sc[S_QDD + m]
@@ -485,11 +480,6 @@ def rhs(md, wk, pc, hs, t, s_idx, y, dy):
         dy[15] = 0.5 * dkm * rb1 * pc.speed * sc[S_COMP] * sc[S_COMP]
     else:
         dy[15] = 0.0
-
-
-# The Runge-Kutta stages call the right-hand side 6 or 12 times a step: there it is inlined
-# (with the contact-state evaluation); elsewhere the compiled call keeps the kernels small.
-rhs_inline = jit_inline(rhs.py_func)
 
 
 @jit

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ..jitcache import jit, jit_inline
+from ..jitcache import jit, jit_hot, jit_inline
 from .contact import (
     evaluate,
     event_values,
@@ -176,7 +176,7 @@ def falls(wk, ng):
     return False
 
 
-@jit_inline
+@jit_hot
 def prepare_scan(md, wk, pc, hs, sp, nsub):
     """Before sampling a step in ``nsub`` parts: keep the event values at its end (its last
     stage was evaluated there) and build the extension to sample on (DOP853: the cheap
@@ -197,7 +197,7 @@ def prepare_scan(md, wk, pc, hs, sp, nsub):
     return extend(md, wk, pc, hs, sp), False, fm_end
 
 
-@jit_inline
+@jit_hot
 def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
     """Sample the step at ks / nsub on the extension (rows ``nf``); record the mesh force
     at the samples before a fall. Returns (hit, theta of the last sample before the fall,
@@ -234,7 +234,7 @@ def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
     return False, th_prev, 1.0
 
 
-@jit_inline
+@jit_hot
 def scan_step(md, wk, pc, hs, sp):
     """Scan the accepted step for falls through zero, samples at most `spacing` apart.
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from ..jitcache import jit, jit_inline
+from ..jitcache import jit, jit_hot, jit_inline
 from .contact import pair_k, pair_k_and_slope, pair_xi, table_index
 from .events import extend, interp
 from .layout import (
@@ -260,7 +260,7 @@ def step_ends(md, wk, pc, hs, sp, d0):
     return fs[0], d0, fs[RK_NS[md.flag[I_METHOD]] - 1], force_rate_evaluated(md, wk, pc)
 
 
-@jit_inline
+@jit_hot
 def step_extremes(md, wk, pc, hs, sp, nf, ends, th_lim):
     """Interior extremes of the mesh force over the accepted Runge-Kutta step ``sp`` up to
     the fraction ``th_lim`` of it (a located switch), into the running least and greatest

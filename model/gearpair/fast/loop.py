@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..engine import CONTACT_BACK, CONTACT_SEPARATED, CONTACT_SLIP, CONTACT_STICK
-from ..jitcache import jit, jit_inline
+from ..jitcache import jit, jit_hot, jit_inline
 from .contact import (
     active_at,
     evaluate,
@@ -99,7 +99,7 @@ from .switching import end_piece, settle, speed_change, switch
 from .tableaux import RK_A, RK_NS
 
 
-@jit_inline
+@jit_hot
 def start_checks(md, wk, pc, hs):
     """Events at the start of a piece, and the switches due there; returns 1 after one.
 
@@ -163,18 +163,20 @@ def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
     return t, t_knot
 
 
-@jit
-def piece(md, wk, hs, nact, tb, lti):
-    """Integrate one contact state from clock[T_T] towards tb; stop at the first switch.
+@jit_inline
+def piece_at(hs, nact):
+    """The `Piece` starting at the current state with the ``nact`` pairs of `Work.active`."""
+    st = hs.clock
+    return Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
 
-    ``lti``: None for an engine without the exact propagator (numba then prunes its branch,
-    so the propagator is compiled only for engines that use it), else True (flag I_LTI).
-    Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
+
+@jit_hot
+def piece(md, wk, hs, nact, tb):
+    """Integrate one contact state from clock[T_T] towards tb by Runge-Kutta steps; stop at
+    the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
     """
     st = hs.clock
-    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
-    if lti is not None:  # no friction: only the separation events, set up there
-        return piece_lti(md, wk, pc, hs, tb)
+    pc = piece_at(hs, nact)
     if start_checks(md, wk, pc, hs) != 0:
         return 1
     h, t_knot = first_step(md, wk, pc, hs, tb)
@@ -200,6 +202,14 @@ def piece(md, wk, hs, nact, tb, lti):
 
 
 @jit
+def piece_exact(md, wk, hs, nact, tb):
+    """`piece` by the exact propagator (`lti.piece_lti`; no friction: only the separation
+    events). A function of its own, so that `piece` is compiled once for both kinds of
+    engine and the propagator only for the engines that use it (`segment`)."""
+    return piece_lti(md, wk, piece_at(hs, nact), hs, tb)
+
+
+@jit
 def release_departed(md, wk, hs, nact):
     """Pairs that left contact are no longer stuck."""
     for j in range(md.flag[I_NP]):
@@ -221,8 +231,7 @@ def book_pair_change(md, wk, hs, nact):
     for i in range(nprev):
         xi = pair_xi(md.par, st[T_S], hs.prev_active[i])
         km_before += pair_k(md, xi, xi, nprev)
-    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
-    evaluate(md, wk, pc, st[T_S], st[T_S], y, hs.dirs, hs.stuck)
+    evaluate(md, wk, piece_at(hs, nact), st[T_S], st[T_S], y, hs.dirs, hs.stuck)
     y[15] += 0.5 * (sc[S_KM] - km_before) * sc[S_COMP] ** 2
 
 
@@ -253,7 +262,10 @@ def segment(md, wk, hs, tb, lti):
     nact = segment_start(md, wk, hs, tb)
     summ = wk.summary
     while hs.clock[T_T] < tb:
-        r = piece(md, wk, hs, nact, tb, lti)
+        if lti is None:  # numba prunes the other branch for the type of lti
+            r = piece(md, wk, hs, nact, tb)
+        else:
+            r = piece_exact(md, wk, hs, nact, tb)
         if r < 0:
             summ[O_STATUS] = STATUS_STEP
             return
@@ -338,9 +350,16 @@ def next_boundary(md, wk, hs, noff, span, last_b):
     return tb, ib, bb, False
 
 
-@jit
+@jit_inline
 def advance(md, wk, hs, t_end, torque, speed, lti):
-    """ReferenceEngine.advance: segments between the known boundaries, then t_end."""
+    """ReferenceEngine.advance: segments between the known boundaries, then t_end.
+
+    ``lti``: None for an engine without the exact propagator (numba then compiles no
+    `piece_exact`), else True (flag I_LTI). Inlined into the two entry points that step
+    (`advance_entry`, `run_grid`): a compiled function of its own would be optimized by LLVM
+    once more with everything it calls, and the grid would pass the records by value per
+    point.
+    """
     st, summ = hs.clock, wk.summary
     for i in range(N_OUT):
         summ[i] = 0.0
@@ -378,8 +397,7 @@ def eval_now(md, wk, hs):
     """Evaluate at the current state (active set of the last segment); returns nact."""
     st = hs.clock
     nact = current_active(md, wk, hs)
-    pc = Piece(st[T_T], st[T_S], st[T_TORQUE], st[T_SPEED], nact, hs.mode[J_SEP])
-    evaluate(md, wk, pc, st[T_S], st[T_S], hs.y, hs.dirs, hs.stuck)
+    evaluate(md, wk, piece_at(hs, nact), st[T_S], st[T_S], hs.y, hs.dirs, hs.stuck)
     return nact
 
 
@@ -398,7 +416,7 @@ def contact_state(wk, hs, nact):
     return state
 
 
-@jit
+@jit_hot
 def outputs_now(md, wk, hs):
     """`Outputs` at the current state into ``wk.outputs`` (compiled: the FMU reads them
     every step)."""

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..jitcache import jit, jit_inline
+from ..jitcache import jit, jit_hot, jit_inline
 from .contact import n_events, pair_k, pair_xi, rhs, solve_small
 from .events import events_at, falls, illinois, illinois_point
 from .extremes import evaluated_terms, exact_terms, stretch_extremes
@@ -527,7 +527,7 @@ def lti_substep(md, wk, pc, hs, lp, ks, t, tb):
     return ks, tn, jumped
 
 
-@jit_inline
+@jit_hot
 def lti_march(md, wk, pc, hs, lp, tb):
     """The sub-steps of a piece, each scanned for falls at its end; returns 1 after a
     switch, 0 on reaching tb."""

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import math
 
-from ..jitcache import jit, jit_inline
-from .contact import next_knot_dt, rhs, rhs_inline
+from ..jitcache import jit, jit_hot, jit_inline
+from .contact import next_knot_dt, rhs
 from .layout import (
     I_IX,
     I_METHOD,
@@ -132,7 +132,7 @@ def first_step(md, wk, pc, hs, tb):
     return h, t_knot
 
 
-@jit_inline
+@jit_hot
 def step_error(md, wk, pc, hs, sp):
     """The stages of step ``sp`` (the new point into ``wk.ynew``) and its error norm."""
     meth = md.flag[I_METHOD]
@@ -141,7 +141,7 @@ def step_error(md, wk, pc, hs, sp):
         stage(meth, stg, y, K, hh, ytmp)
         c = RK_C[meth, stg]
         ts = sp.tn if c == 1.0 else t + c * hh
-        rhs_inline(md, wk, pc, hs, ts, sp.si, ytmp, K[stg])
+        rhs(md, wk, pc, hs, ts, sp.si, ytmp, K[stg])
         # the mesh force at the stage: its Runge-Kutta quadrature is the force's integral
         # over the step at the method's order (a quadrature component of y, without one: it
         # feeds nothing back and takes no part in the error control)
@@ -198,7 +198,7 @@ def plan_step(md, pc, t, h, t_knot, tb):
     return Step(t, hh, tn, si, last, at_knot)
 
 
-@jit_inline
+@jit_hot
 def try_step(md, wk, pc, hs, t, h, t_knot, tb):
     """Attempt steps from t until one passes the error test.
 

@@ -203,8 +203,9 @@ def force_curvature(md, wk, pc, t, s_idx, y, yd):
 
 
 @jit
-def refine_turns(md, wk, pc, hs, sp, nf, turns, th_lim, ends):
-    """`refine_turn` for the turning points ``turns`` (theta, sgn; theta nan: none).
+def refine_turns(md, wk, pc, hs, sp, scan, turns, ends):
+    """`refine_turn` for the turning points ``turns`` (theta, sgn; theta nan: none);
+    ``scan``: (rows of the step's continuous extension, fraction of the step before a switch).
 
     A whole step the scan did not extend (``hs.y`` and ``wk.ynew`` its ends, the first and
     last stages their rates) first tries the quintic Hermite of F, F', F'' at its ends
@@ -214,6 +215,7 @@ def refine_turns(md, wk, pc, hs, sp, nf, turns, th_lim, ends):
     extension is built (DOP853: three more stages; always building it cost 8-11 % of a
     stick-slip run advanced every 1e-4 or 1e-3 s, the quintic brings that to 1-4 %)."""
     f0, d0, f1, d1 = ends
+    nf, th_lim = scan
     h = sp.hh
     quick = nf <= 3 and th_lim >= 1.0
     e0 = e1 = wh = tol = c = d = 0.0
@@ -292,7 +294,7 @@ def step_extremes(md, wk, pc, hs, sp, nf, ends, th_lim):
             else:
                 t2 = (r, sgn)
     if t1[0] > 0.0 or t2[0] > 0.0:
-        refine_turns(md, wk, pc, hs, sp, nf, (t1, t2), th_lim, ends)
+        refine_turns(md, wk, pc, hs, sp, (nf, th_lim), (t1, t2), ends)
 
 
 @jit_inline

@@ -106,25 +106,40 @@ def force_at(md, wk, pc, t, s_idx, yk):
     return km * (comp + mp[P_BACK] if pc.cs == 2 else comp)
 
 
+@jit_inline
+def stiffness_rates(md, wk, pc, t, s_idx, curvature):
+    """(v1, km, d km/ds, d2 km/ds2) of the active pairs at time t (m/s, N/m, N/m^2, N/m^3),
+    on the table interval of ``s_idx``; the curvature only when ``curvature`` (else 0)."""
+    mp = md.par
+    v1 = mp[P_RB1] * pc.speed
+    s = pc.s0 + v1 * (t - pc.t0)
+    km = 0.0
+    dkm = 0.0
+    d2km = 0.0
+    cubic = curvature and md.flag[I_KIND] == KIND_CUBIC
+    for i in range(pc.nact):
+        xi = pair_xi(mp, s, wk.active[i])
+        xi_idx = xi + (s_idx - s)
+        k, dk = pair_k_and_slope(md, xi, xi_idx, pc.nact)
+        km += k
+        dkm += dk
+        if cubic:
+            j = table_index(md, xi_idx)
+            c = 4 * j
+            d2km += 6.0 * md.k_coef[c + 3] * (xi - md.xi_knots[j]) + 2.0 * md.k_coef[c + 2]
+    return v1, km, dkm, d2km
+
+
 @jit
 def force_rate(md, wk, pc, t, s_idx, y):
     """dF/dt (N/s) of the elastic mesh force at (t, y): d km/dt compression + km delta'
     (the stiffness on the table interval of ``s_idx``)."""
     if pc.cs == 1:
         return 0.0
-    mp = md.par
-    v1 = mp[P_RB1] * pc.speed
-    s = pc.s0 + v1 * (t - pc.t0)
-    km = 0.0
-    dkm = 0.0
-    for i in range(pc.nact):
-        xi = pair_xi(mp, s, wk.active[i])
-        k, dk = pair_k_and_slope(md, xi, xi + (s_idx - s), pc.nact)
-        km += k
-        dkm += dk
+    v1, km, dkm, _ = stiffness_rates(md, wk, pc, t, s_idx, False)
     comp = y[1] - y[4] + y[2] + y[5]
     if pc.cs == 2:
-        comp += mp[P_BACK]
+        comp += md.par[P_BACK]
     return dkm * v1 * comp + km * (y[7] - y[10] + y[8] + y[11])
 
 
@@ -178,26 +193,10 @@ def force_curvature(md, wk, pc, t, s_idx, y, yd):
     + 2 km' delta' + km delta'' (the stiffness on the table interval of ``s_idx``)."""
     if pc.cs == 1:
         return 0.0
-    mp = md.par
-    v1 = mp[P_RB1] * pc.speed
-    s = pc.s0 + v1 * (t - pc.t0)
-    km = 0.0
-    dkm = 0.0
-    d2km = 0.0
-    cubic = md.flag[I_KIND] == KIND_CUBIC
-    for i in range(pc.nact):
-        xi = pair_xi(mp, s, wk.active[i])
-        xi_idx = xi + (s_idx - s)
-        k, dk = pair_k_and_slope(md, xi, xi_idx, pc.nact)
-        km += k
-        dkm += dk
-        if cubic:
-            j = table_index(md, xi_idx)
-            c = 4 * j
-            d2km += 6.0 * md.k_coef[c + 3] * (xi - md.xi_knots[j]) + 2.0 * md.k_coef[c + 2]
+    v1, km, dkm, d2km = stiffness_rates(md, wk, pc, t, s_idx, True)
     comp = y[1] - y[4] + y[2] + y[5]
     if pc.cs == 2:
-        comp += mp[P_BACK]
+        comp += md.par[P_BACK]
     return (d2km * v1 * v1 * comp + 2.0 * dkm * v1 * (y[7] - y[10] + y[8] + y[11])
             + km * (yd[7] - yd[10] + yd[8] + yd[11]))
 

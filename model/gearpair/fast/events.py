@@ -112,6 +112,16 @@ def extend(md, wk, pc, hs, sp):
     return dense_rows(md, wk.dense, hs.y, wk.ynew, K, hh)
 
 
+@jit_inline
+def record_force(summ, f):
+    """Take the mesh force ``f`` (N), a point of the trajectory, into the running least and
+    greatest values of the step summary ``summ``."""
+    if f > summ[O_FMAX]:
+        summ[O_FMAX] = f
+    if f < summ[O_FMIN]:
+        summ[O_FMIN] = f
+
+
 @jit
 def events_at(md, wk, pc, hs, t, yk, g):
     """Event values at (t, yk) into g, with the full contact-state evaluation; returns the
@@ -224,10 +234,7 @@ def scan_samples(md, wk, pc, hs, sp, nsub, nf, fm_end):
         if ks == nsub or nf > 3:
             # the step's end, or a point of its continuous extension (not of DOP853's cheap
             # Hermite, which can overshoot): `extremes` finds the turns in between
-            if fm > summ[O_FMAX]:
-                summ[O_FMAX] = fm
-            if fm < summ[O_FMIN]:
-                summ[O_FMIN] = fm
+            record_force(summ, fm)
         for e in range(ng):
             wk.gprev[e] = g[e]
         th_prev = th

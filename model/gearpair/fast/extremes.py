@@ -19,7 +19,7 @@ import math
 
 from ..jitcache import jit, jit_hot, jit_inline
 from .contact import pair_k, pair_k_and_slope, pair_xi, table_index
-from .events import extend, interp
+from .events import extend, interp, record_force
 from .layout import (
     I_KIND,
     I_METHOD,
@@ -53,14 +53,6 @@ def could_beat(summ, f0, f1, reach):
     """Whether a step whose force stays within ``reach`` (N) of its end values f0, f1 could
     set a new least or greatest value (the running ones in ``summ``)."""
     return max(f0, f1) + reach > summ[O_FMAX] or min(f0, f1) - reach < summ[O_FMIN]
-
-
-@jit_inline
-def record(summ, f):
-    if f > summ[O_FMAX]:
-        summ[O_FMAX] = f
-    if f < summ[O_FMIN]:
-        summ[O_FMIN] = f
 
 
 @jit_inline
@@ -174,9 +166,9 @@ def refine_turn(md, wk, pc, sp, nf, th, th_lim, sgn):
         fm = extension_force(md, wk, pc, sp, nf, tc - ETA)
         fc = extension_force(md, wk, pc, sp, nf, tc)
         fp = extension_force(md, wk, pc, sp, nf, tc + ETA)
-        record(summ, fm)
-        record(summ, fc)
-        record(summ, fp)
+        record_force(summ, fm)
+        record_force(summ, fc)
+        record_force(summ, fp)
         curv = fp - 2.0 * fc + fm
         if not (sgn * curv < 0.0):
             return
@@ -184,7 +176,7 @@ def refine_turn(md, wk, pc, sp, nf, th, th_lim, sgn):
         th = min(max(tc + step, 0.0), th_lim)
         if abs(step) < 1e-6:
             return
-    record(summ, extension_force(md, wk, pc, sp, nf, th))
+    record_force(summ, extension_force(md, wk, pc, sp, nf, th))
 
 
 @jit
@@ -242,7 +234,7 @@ def refine_turns(md, wk, pc, hs, sp, scan, turns, ends):
             q = quintic(f0, d0, e0, f1, d1, e1, h, th)[0]
             p3 = f0 + th * (h * d0 + th * (c + th * d))
             if abs(q - p3) * wh * wh / 120.0 <= tol:
-                record(wk.summary, q)
+                record_force(wk.summary, q)
                 continue
             quick = False
         if nf <= 3:  # none or the cheap Hermite of the state (DOP853's scan)
@@ -376,7 +368,7 @@ def stretch_turns(summ, a, b, h, reach):
             th = min(max(th - step, 0.0), 1.0)
             if abs(step) < 1e-6:  # the value is then off by (1e-6 h)^2 F''/2 at most
                 break
-        record(summ, quintic(f0, d0, e0, f1, d1, e1, h, th)[0])
+        record_force(summ, quintic(f0, d0, e0, f1, d1, e1, h, th)[0])
 
 
 @jit_inline

@@ -28,7 +28,7 @@ from .contact import (
     pair_xi,
     param_rate,
 )
-from .events import events_at, locate_and_switch, scan_step
+from .events import events_at, locate_and_switch, record_force, scan_step
 from .extremes import step_ends, step_extremes
 from .layout import (
     FR_NOMINAL,
@@ -108,10 +108,7 @@ def start_checks(md, wk, pc, hs):
     """
     st, stuck, act, gprev = hs.clock, hs.stuck, wk.active, wk.gprev
     fm = events_at(md, wk, pc, hs, pc.t0, hs.y, gprev)
-    if fm > wk.summary[O_FMAX]:
-        wk.summary[O_FMAX] = fm
-    if fm < wk.summary[O_FMIN]:
-        wk.summary[O_FMIN] = fm
+    record_force(wk.summary, fm)
     e0 = n_sep_events(md, pc.cs)
     retest = False
     for e in range(e0, n_events(md, pc.nact, pc.cs)):

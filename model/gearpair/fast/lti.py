@@ -15,7 +15,7 @@ import numpy as np
 
 from ..jitcache import jit, jit_hot, jit_inline
 from .contact import n_events, pair_k, pair_xi, rhs, solve_small
-from .events import events_at, falls, illinois, illinois_point
+from .events import events_at, falls, illinois, illinois_point, record_force
 from .extremes import evaluated_terms, exact_terms, stretch_extremes
 from .layout import (
     I_TORS,
@@ -25,8 +25,6 @@ from .layout import (
     N_Y,
     NZ,
     O_FINT,
-    O_FMAX,
-    O_FMIN,
     O_NSTEPS,
     P_BACK,
     P_C,
@@ -446,10 +444,7 @@ def lti_start(md, wk, pc, hs, km, tb):
         fm = km * comp_of(md.par, z, pc.cs)
     else:
         fm = events_at(md, wk, pc, hs, pc.t0, y, wk.gprev)
-    if fm > wk.summary[O_FMAX]:
-        wk.summary[O_FMAX] = fm
-    if fm < wk.summary[O_FMIN]:
-        wk.summary[O_FMIN] = fm
+    record_force(wk.summary, fm)
     if not quiet:
         nsub = max(1, int(math.ceil(htot / md.par[P_SPACING] * (1.0 - 1e-12))))
         if nsub > 1:
@@ -552,10 +547,7 @@ def lti_march(md, wk, pc, hs, lp, tb):
                     stretch_extremes(wk.summary, ends, exact_terms(
                         md, wk.lti_mats[lp.slot], zn, lp.km, pc.cs), hs.clock[T_T] - t)
                 return 1
-            if fm > wk.summary[O_FMAX]:
-                wk.summary[O_FMAX] = fm
-            if fm < wk.summary[O_FMIN]:
-                wk.summary[O_FMIN] = fm
+            record_force(wk.summary, fm)
             end_terms = evaluated_terms(wk, pc.cs)
             if not jumped:  # a jump is quiet: within rtol of the static force
                 stretch_extremes(wk.summary, ends, end_terms, tn - t)

@@ -127,7 +127,6 @@ class ReferenceEngine(Engine):
         self._last = None
         self._h = None
         self._prev_active = active
-        self._extremes = (-math.inf, math.inf)  # running min/max mesh force of an advance
 
     def get_state(self) -> dict:
         return {
@@ -259,8 +258,8 @@ class ReferenceEngine(Engine):
                 ev = self._eval_at(self.t, self.y, active, self.mode, self.t, self.s)
                 self.y[15] += 0.5 * (ev.km - km_before) * ev.compression**2
             while self.t < tb:
-                self._extremes = (fmax, fmin)  # the running ones: what a step must beat
-                n_ev_seg, n_st, fm, fm_lo, fi = self._integrate_segment(tb, active)
+                n_ev_seg, n_st, fm, fm_lo, fi = self._integrate_segment(tb, active,
+                                                                        (fmax, fmin))
                 n_ev += n_ev_seg
                 n_steps += n_st
                 fmax = max(fmax, fm)
@@ -339,12 +338,14 @@ class ReferenceEngine(Engine):
                 fmin = min(fmin, -best)
         return fmax, fmin
 
-    def _integrate_segment(self, tb: float, active) -> tuple[int, int, float, float, float]:
+    def _integrate_segment(self, tb: float, active,
+                           extremes: tuple[float, float]) -> tuple[int, int, float, float, float]:
         """Integrate in one contact state from self.t towards tb; stop at the first switch.
 
-        Returns (number of switches, solver steps, least and greatest mesh force over the
-        piece with the running ones in ``self._extremes`` (`_step_extremes`), the mesh
-        force's time integral (N s))."""
+        ``extremes``: the greatest and least mesh force of the advance so far (N), what a
+        step's turn must beat to be located (`_step_extremes`). Returns (number of
+        switches, solver steps, greatest and least mesh force over the piece together with
+        ``extremes``, the mesh force's time integral (N s))."""
         m = self.model
         mode = self.mode
         t0, s0 = self.t, self.s
@@ -355,7 +356,7 @@ class ReferenceEngine(Engine):
         if self._h is not None:
             kw["first_step"] = min(self._h, tb - t0)
         solver = solver_cls(fun, t0, self.y, tb, **kw)
-        fmax, fmin = self._extremes
+        fmax, fmin = extremes
         fint = 0.0
 
         def values(t, y):

@@ -251,6 +251,12 @@ _ENGINE_CACHE = _engine_cache_class() if CACHE else None
 # forceinline is set on every function, so none inherits it from the caller being compiled
 _OPTIONS = dict(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False,
                 forceinline=False)
+# Only the entry points (`jit_entry`) are called from Python. The others are called from
+# compiled code alone, so they get neither the wrapper that converts Python arguments (for
+# the records, the unboxing of some 30 arrays: code to generate, optimize and compile for
+# every function) nor the C-callable one.
+_INTERNAL = dict(_OPTIONS, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+_INTERNAL["cache"] = False
 
 
 def _with_engine_cache(dispatcher):
@@ -265,9 +271,79 @@ def _with_engine_cache(dispatcher):
     return dispatcher
 
 
-def jit(func):
-    """``numba.njit`` with the engine's options and cache."""
+def _link_only_pipeline():
+    from numba.core import codegen, compiler
+    from numba.core.compiler_lock import require_global_compiler_lock
+    from numba.core.compiler_machinery import FunctionPass, register_pass
+    from numba.core.typed_passes import NativeLowering
+
+    class _LinkOnlyLibrary(codegen.JITCodeLibrary):
+        def finalize(self):
+            require_global_compiler_lock()
+            self._raise_if_finalized()
+            seen = set()
+            for library in self._linking_libraries:
+                if library not in seen:
+                    self._reload_init.update(library._reload_init)
+                    seen.add(library)
+                    self._final_module.link_in(library._get_module_for_linking(),
+                                               preserve=True)
+            self._finalized = True
+
+        def get_pointer_to_function(self, name):
+            self._ensure_finalized()
+            return 0
+
+        @property
+        def codegen(self):
+            return _NoEnvCodegen(self._codegen)
+
+    class _NoEnvCodegen:
+        def __init__(self, cg):
+            self._cg = cg
+
+        def set_env(self, env_name, env):
+            pass
+
+        def __getattr__(self, name):
+            return getattr(self._cg, name)
+
+    @register_pass(mutates_CFG=False, analysis_only=False)
+    class _LinkOnlyLibraryPass(FunctionPass):
+        _name = "gearpair_link_only_library"
+
+        def __init__(self):
+            FunctionPass.__init__(self)
+
+        def run_pass(self, state):
+            if state.library is None:
+                state.library = _LinkOnlyLibrary(state.targetctx.codegen(),
+                                                 state.func_id.func_qualname)
+            return True
+
+    class _Compiler(compiler.CompilerBase):
+        def define_pipelines(self):
+            pm = compiler.DefaultPassBuilder.define_nopython_pipeline(self.state)
+            pm.add_pass_after(_LinkOnlyLibraryPass, compiler.NopythonTypeInference)
+            pm.finalize()
+            return [pm]
+
+    return _Compiler
+
+
+_LINK_ONLY = _link_only_pipeline()
+
+
+def jit_entry(func):
+    """``numba.njit`` with the engine's options and cache, callable from Python: the
+    engine's entry points."""
     return _with_engine_cache(numba.njit(**_OPTIONS)(func))
+
+
+def jit(func):
+    """``numba.njit`` with the engine's options and cache, for functions called only from
+    compiled code (no Python wrapper)."""
+    return _with_engine_cache(numba.njit(pipeline_class=_LINK_ONLY, **_INTERNAL)(func))
 
 
 def jit_inline(func):
@@ -279,7 +355,7 @@ def jit_inline(func):
     callee itself inlines, so nested inlining of larger functions costs compile time that
     grows with the square of their size; those are `jit_hot`.
     """
-    return _with_engine_cache(numba.njit(inline="always", **_OPTIONS)(func))
+    return _with_engine_cache(numba.njit(inline="always", **_INTERNAL)(func))
 
 
 def jit_hot(func):
@@ -287,7 +363,7 @@ def jit_hot(func):
     caller (``alwaysinline``), for the larger functions of the hot path: no call passing
     the records by value, as with `jit_inline`, but typed and compiled once, not at each
     call site."""
-    return _with_engine_cache(numba.njit(**dict(_OPTIONS, forceinline=True))(func))
+    return _with_engine_cache(numba.njit(pipeline_class=_LINK_ONLY, **dict(_INTERNAL, forceinline=True))(func))
 
 
 _LOADED: dict = {}

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..engine import CONTACT_BACK, CONTACT_SEPARATED, CONTACT_SLIP, CONTACT_STICK
-from ..jitcache import jit, jit_hot, jit_inline
+from ..jitcache import jit, jit_entry, jit_hot, jit_inline
 from .contact import (
     active_at,
     evaluate,
@@ -492,7 +492,7 @@ def reset_settle(md, wk, hs):
 
 
 # -- entry points from Python: plain tuples in, named records inside ------------------------
-@jit
+@jit_entry
 def advance_entry(md, wk, hs, t_end, torque, speed, lti):
     """`advance`, then the outputs at the new state into wk.outputs unless it failed (the
     FMU reads them every step: one call from Python instead of two)."""
@@ -502,21 +502,21 @@ def advance_entry(md, wk, hs, t_end, torque, speed, lti):
         outputs_now(m, w, h)
 
 
-@jit
+@jit_entry
 def run_grid_entry(md, wk, hs, grid, inputs, rec, lti):
     return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, inputs, rec, lti)
 
 
-@jit
+@jit_entry
 def outputs_entry(md, wk, hs):
     outputs_now(ModelData(*md), Work(*wk), HybridState(*hs))
 
 
-@jit
+@jit_entry
 def eval_entry(md, wk, hs):
     return eval_now(ModelData(*md), Work(*wk), HybridState(*hs))
 
 
-@jit
+@jit_entry
 def reset_entry(md, wk, hs):
     reset_settle(ModelData(*md), Work(*wk), HybridState(*hs))

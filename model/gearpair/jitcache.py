@@ -9,7 +9,7 @@ fresh temporary directory (an FMU instantiation) finds the code compiled by an e
 no cache directory can be used, the functions are compiled in memory on first use.
 
 This module must be imported before numba (it sets ``NUMBA_CACHE_DIR``); the engine imports
-`jit`, `jit_inline` and `jit_hot` from here.
+`jit_entry`, `jit` and `jit_hot` from here.
 """
 
 from __future__ import annotations
@@ -28,6 +28,8 @@ if CACHE_DIR is not None and "numba" not in sys.modules:
 
 import numba  # noqa: E402  (after NUMBA_CACHE_DIR is set)
 
+from . import jitlink  # noqa: E402  (imports numba)
+
 _PACKAGE = __name__.rpartition(".")[0]  # "gearpair", or "_gearpair_fmu" inside the FMU
 ENGINE_MODULE = _PACKAGE + ".fast"  # the engine: this module, or a package of modules
 _HERE = os.path.dirname(os.path.abspath(__file__))
@@ -35,13 +37,13 @@ _HERE = os.path.dirname(os.path.abspath(__file__))
 
 def engine_files(root: str = _HERE) -> list[str]:
     """The engine's source files under a package folder: ``fast.py`` or ``fast/*.py``
-    (sorted), plus this file, whose decorator options shape the compiled code."""
+    (sorted), plus this file and `jitlink`, whose options shape the compiled code."""
     pkg = os.path.join(root, "fast")
     if os.path.isdir(pkg):
         files = sorted(os.path.join(pkg, n) for n in os.listdir(pkg) if n.endswith(".py"))
     else:
         files = [pkg + ".py"]
-    return files + [os.path.join(root, "jitcache.py")]
+    return files + [os.path.join(root, "jitcache.py"), os.path.join(root, "jitlink.py")]
 
 
 def _file_digest(path: str) -> str:
@@ -252,11 +254,12 @@ _ENGINE_CACHE = _engine_cache_class() if CACHE else None
 _OPTIONS = dict(cache=CACHE, fastmath=False, error_model="numpy", _nrt=False,
                 forceinline=False)
 # Only the entry points (`jit_entry`) are called from Python. The others are called from
-# compiled code alone, so they get neither the wrapper that converts Python arguments (for
-# the records, the unboxing of some 30 arrays: code to generate, optimize and compile for
-# every function) nor the C-callable one.
+# compiled code alone: no wrapper converting Python arguments (for the records, the unboxing
+# of some 30 arrays: code to generate and compile for every function), no C-callable one,
+# and compiled to LLVM IR only (`jitlink`), so not cached on their own.
 _INTERNAL = dict(_OPTIONS, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-_INTERNAL["cache"] = False
+if jitlink.LINK_ONLY is not None:
+    _INTERNAL.update(cache=False, pipeline_class=jitlink.LINK_ONLY)
 
 
 def _with_engine_cache(dispatcher):
@@ -271,99 +274,31 @@ def _with_engine_cache(dispatcher):
     return dispatcher
 
 
-def _link_only_pipeline():
-    from numba.core import codegen, compiler
-    from numba.core.compiler_lock import require_global_compiler_lock
-    from numba.core.compiler_machinery import FunctionPass, register_pass
-    from numba.core.typed_passes import NativeLowering
-
-    class _LinkOnlyLibrary(codegen.JITCodeLibrary):
-        def finalize(self):
-            require_global_compiler_lock()
-            self._raise_if_finalized()
-            seen = set()
-            for library in self._linking_libraries:
-                if library not in seen:
-                    self._reload_init.update(library._reload_init)
-                    seen.add(library)
-                    self._final_module.link_in(library._get_module_for_linking(),
-                                               preserve=True)
-            self._finalized = True
-
-        def get_pointer_to_function(self, name):
-            self._ensure_finalized()
-            return 0
-
-        @property
-        def codegen(self):
-            return _NoEnvCodegen(self._codegen)
-
-    class _NoEnvCodegen:
-        def __init__(self, cg):
-            self._cg = cg
-
-        def set_env(self, env_name, env):
-            pass
-
-        def __getattr__(self, name):
-            return getattr(self._cg, name)
-
-    @register_pass(mutates_CFG=False, analysis_only=False)
-    class _LinkOnlyLibraryPass(FunctionPass):
-        _name = "gearpair_link_only_library"
-
-        def __init__(self):
-            FunctionPass.__init__(self)
-
-        def run_pass(self, state):
-            if state.library is None:
-                state.library = _LinkOnlyLibrary(state.targetctx.codegen(),
-                                                 state.func_id.func_qualname)
-            return True
-
-    class _Compiler(compiler.CompilerBase):
-        def define_pipelines(self):
-            pm = compiler.DefaultPassBuilder.define_nopython_pipeline(self.state)
-            pm.add_pass_after(_LinkOnlyLibraryPass, compiler.NopythonTypeInference)
-            pm.finalize()
-            return [pm]
-
-    return _Compiler
-
-
-_LINK_ONLY = _link_only_pipeline()
-
-
 def jit_entry(func):
-    """``numba.njit`` with the engine's options and cache, callable from Python: the
-    engine's entry points."""
+    """``numba.njit`` with the engine's options and cache, for the entry points: the only
+    functions called from Python, each compiled with everything it calls inlined or
+    linked, and cached."""
     return _with_engine_cache(numba.njit(**_OPTIONS)(func))
 
 
 def jit(func):
-    """``numba.njit`` with the engine's options and cache, for functions called only from
-    compiled code (no Python wrapper)."""
-    return _with_engine_cache(numba.njit(pipeline_class=_LINK_ONLY, **_INTERNAL)(func))
-
-
-def jit_inline(func):
-    """`jit` inlined into its callers at numba IR level, for small helpers: a call between
-    compiled functions passes every array of its records by value (some 230 machine words
-    for the three records), which costs more than the arithmetic of a small helper.
-
-    numba copies and types the callee's IR again at every call site, including what the
-    callee itself inlines, so nested inlining of larger functions costs compile time that
-    grows with the square of their size; those are `jit_hot`.
-    """
-    return _with_engine_cache(numba.njit(inline="always", **_INTERNAL)(func))
+    """An internal function of the engine (called from compiled code only), compiled once
+    and linked into its callers, where LLVM decides whether to inline it: for the code off
+    the hot path (event location, switches, the exact propagator's set-up)."""
+    return jitlink.compiled_only(_with_engine_cache(numba.njit(**_INTERNAL)(func)))
 
 
 def jit_hot(func):
-    """`jit` compiled once as a function of its own that LLVM inlines into every compiled
-    caller (``alwaysinline``), for the larger functions of the hot path: no call passing
-    the records by value, as with `jit_inline`, but typed and compiled once, not at each
-    call site."""
-    return _with_engine_cache(numba.njit(pipeline_class=_LINK_ONLY, **dict(_INTERNAL, forceinline=True))(func))
+    """`jit` that LLVM always inlines into its callers (numba's ``forceinline``), for the
+    hot path and the small helpers: a call would pass every array of the records by value
+    (some 230 machine words for the three records), more than a small helper's arithmetic.
+
+    Each is typed and lowered once, whatever the number of its call sites; numba's own
+    IR-level inlining (``inline="always"``) types the callee again at every call site,
+    nested, which made a first compile take minutes.
+    """
+    return jitlink.compiled_only(
+        _with_engine_cache(numba.njit(**dict(_INTERNAL, forceinline=True))(func)))
 
 
 _LOADED: dict = {}

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..jitcache import jit, jit_hot, jit_inline
+from ..jitcache import jit, jit_hot
 from .layout import (
     FR_NOMINAL,
     FR_REG,
@@ -75,7 +75,7 @@ from .layout import (
 )
 
 
-@jit_inline
+@jit_hot
 def sgn(x, fallback):
     if x > 0.0:
         return 1.0
@@ -84,7 +84,7 @@ def sgn(x, fallback):
     return fallback
 
 
-@jit_inline
+@jit_hot
 def wrap(x, per):
     """x mod per in [0, per) (numpy's mod for a positive divisor)."""
     r = x - per * math.floor(x * (1.0 / per))
@@ -95,7 +95,7 @@ def wrap(x, per):
     return r
 
 
-@jit_inline
+@jit_hot
 def pair_xi(par, s, j):
     """Position from A of tracked pair j held in contact at mesh travel s (Model.contact)."""
     per, L = par[P_PER], par[P_L]
@@ -110,14 +110,14 @@ def pair_xi(par, s, j):
     return min(max(xi, 0.0), L)
 
 
-@jit_inline
+@jit_hot
 def table_index(md, x):
     """Interval of the (uniform) stiffness table holding position x, clipped to the table."""
     i = int(math.floor(x * md.par[P_INVDX]))
     return min(max(i, 0), md.flag[I_NTAB] - 2)
 
 
-@jit_inline
+@jit_hot
 def pair_k(md, xi, xi_idx, nact):
     """Stiffness of a pair at xi, on the table interval that holds xi_idx (the same one
     over a step, so that a step ending on a knot uses the interval it integrated over)."""
@@ -132,7 +132,7 @@ def pair_k(md, xi, xi_idx, nact):
     return tk[i] + d * md.k_slope[i]
 
 
-@jit_inline
+@jit_hot
 def pair_k_and_slope(md, xi, xi_idx, nact):
     """`pair_k` and its slope d k/d xi (N/m per m), from one table look-up."""
     if md.flag[I_KIND] == KIND_CONSTANT:
@@ -189,7 +189,7 @@ def solve_small(Sm, n, nrhs):
             Sm[r, k] = acc / Sm[r, r]
 
 
-@jit_inline
+@jit_hot
 def mesh_forces(md, wk, pc, s, s_idx, y):
     """Pair geometry and stiffness, the DTE and the support, mesh and input forces of one
     contact state into ``wk`` (Eqs. (1)-(8)); no friction yet."""
@@ -230,7 +230,7 @@ def mesh_forces(md, wk, pc, s, s_idx, y):
     sc[S_F + 5] += mp[P_KB + 5] * y[Y_A] + mp[P_C + 5] * y[Y_AD]  # load-shaft end
 
 
-@jit_inline
+@jit_hot
 def sliding_mu(par, v):
     """Coefficient of sliding friction at sliding velocity v (`equations.sliding_coefficient`):
     mu, or with a Stribeck velocity v_s, mu + (mu_static - mu) exp(-(v / v_s)^2)."""
@@ -240,7 +240,7 @@ def sliding_mu(par, v):
     return par[P_MU] + (par[P_MUS] - par[P_MU]) * math.exp(-(r * r))
 
 
-@jit_inline
+@jit_hot
 def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
     """Normal forces, sliding velocities (Eqs. (12)-(13)) and the friction of the slipping
     pairs by the friction law; returns the number of stuck pairs (their friction is
@@ -288,7 +288,7 @@ def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
     return ns
 
 
-@jit_inline
+@jit_hot
 def pin_supports(sc):
     """Torsional model: no forces on x1, y1, x2, y2 (rigid supports), which stay at 0."""
     sc[S_F + 0] = 0.0
@@ -297,7 +297,7 @@ def pin_supports(sc):
     sc[S_F + 4] = 0.0
 
 
-@jit_inline
+@jit_hot
 def static_friction_system(md, wk, pc, y, ns):
     """Rows a_a, columns w_b of the stuck pairs' system (equations.static_friction) into
     ``wk.solve``; rhs -(c + a M^-1 F) for the chosen tie (column ns) and the exact tie
@@ -337,7 +337,7 @@ def static_friction_system(md, wk, pc, y, ns):
         ra += 1
 
 
-@jit_inline
+@jit_hot
 def static_friction(md, wk, pc, y, ns):
     """Static friction of the ``ns`` stuck pairs: solve their system and apply it."""
     mp, pw, sc, Sm = md.par, wk.pair, wk.scal, wk.solve
@@ -379,7 +379,7 @@ def evaluate(md, wk, pc, s, s_idx, y, dirs, stuck):
         sc[S_QDD + m] = md.par[P_MINV + m] * sc[S_F + m]
 
 
-@jit_inline
+@jit_hot
 def n_sep_events(md, cs):
     """Number of flank events: 1 (leave/regain contact), 2 apart with a back flank."""
     if md.flag[I_SEP] == 0:
@@ -387,7 +387,7 @@ def n_sep_events(md, cs):
     return 2 if (cs == 1 and md.flag[I_BACK] != 0) else 1
 
 
-@jit_inline
+@jit_hot
 def n_events(md, nact, cs):
     n = n_sep_events(md, cs)
     if md.flag[I_FRIC] == FR_STICK and cs == 0:
@@ -395,7 +395,7 @@ def n_events(md, nact, cs):
     return n
 
 
-@jit_inline
+@jit_hot
 def sep_event_values(md, cs, d, g):
     """Separation events of contact code ``cs`` at DTE ``d`` into g; returns their count."""
     if md.flag[I_SEP] == 0:
@@ -411,7 +411,7 @@ def sep_event_values(md, cs, d, g):
     return n_sep_events(md, cs)
 
 
-@jit_inline
+@jit_hot
 def event_values(md, wk, pc, dirs, g):
     """`switching.event_values` of the evaluated state in ``wk``: positive while it holds."""
     pw = wk.pair
@@ -517,7 +517,7 @@ def next_knot_dt(md, s, speed, act, nact):
     return best
 
 
-@jit_inline
+@jit_hot
 def pair_v(md, s, y, speed, j):
     """Sliding velocity of tracked pair j (the arithmetic of `friction_forces`, to the bit)."""
     mp = md.par

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ..jitcache import jit, jit_hot, jit_inline
+from ..jitcache import jit, jit_hot
 from .contact import (
     evaluate,
     event_values,
@@ -52,7 +52,7 @@ from .switching import any_stuck, end_piece, switch
 from .tableaux import RK_C, RK_D, RK_ND, RK_NS, RK_NX
 
 
-@jit_inline
+@jit_hot
 def interp(md, R, nf, theta, out):
     """Continuous extension of the accepted step at fraction ``theta``:
     R0 + th (R1 + (1 - th) (R2 + th (R3 + ...))) over rows 1..nf; the components that are
@@ -67,7 +67,7 @@ def interp(md, R, nf, theta, out):
         out[m] = R[0, m] + acc
 
 
-@jit_inline
+@jit_hot
 def hermite(R, y, ynew, K, hh, nfs):
     """Rows 0-3 of the continuous extension (`interp`): alone, the cubic Hermite of the step
     ends (K[0] at the start, K[nfs] at the end); returns its row count."""
@@ -80,7 +80,7 @@ def hermite(R, y, ynew, K, hh, nfs):
     return 3
 
 
-@jit_inline
+@jit_hot
 def dense_rows(md, R, y, ynew, K, hh):
     """Coefficients of the continuous extension of the step y -> ynew (for `interp`): the
     Hermite rows plus rows of D; for DOP853 the extra stages must be in K already
@@ -112,7 +112,7 @@ def extend(md, wk, pc, hs, sp):
     return dense_rows(md, wk.dense, hs.y, wk.ynew, K, hh)
 
 
-@jit_inline
+@jit_hot
 def record_force(summ, f):
     """Take the mesh force ``f`` (N), a point of the trajectory, into the running least and
     greatest values of the step summary ``summ``."""
@@ -132,7 +132,7 @@ def events_at(md, wk, pc, hs, t, yk, g):
     return wk.scal[S_KM] * wk.scal[S_COMP]
 
 
-@jit_inline
+@jit_hot
 def events_light(md, wk, pc, hs, t, yk, g):
     """`events_at` where no pair is stuck: the event functions (DTE, slip velocities) and
     the mesh force are then plain expressions of the state, so the forces, the friction and
@@ -155,7 +155,7 @@ def events_light(md, wk, pc, hs, t, yk, g):
     return km * (delta + mp[P_BACK] if sep == 2 else delta)
 
 
-@jit_inline
+@jit_hot
 def illinois_point(a, ga, b, gb):
     """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b)."""
     c = b - gb * (b - a) / (gb - ga)
@@ -164,7 +164,7 @@ def illinois_point(a, ga, b, gb):
     return c
 
 
-@jit_inline
+@jit_hot
 def illinois(a, ga, b, gb, c, gc, side):
     """Shrink the bracket with the value gc at c; halve the stale end's value when the same
     end moves twice (what keeps regula falsi superlinear). Returns a, ga, b, gb, side."""
@@ -177,7 +177,7 @@ def illinois(a, ga, b, gb, c, gc, side):
     return c, gc, b, gb, 1
 
 
-@jit_inline
+@jit_hot
 def falls(wk, ng):
     """Whether an event function fell through zero between ``wk.gprev`` and ``wk.g``."""
     for e in range(ng):

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from ..jitcache import jit, jit_hot, jit_inline
+from ..jitcache import jit, jit_hot
 from .contact import pair_k, pair_k_and_slope, pair_xi, table_index
 from .events import extend, interp, record_force
 from .layout import (
@@ -48,14 +48,14 @@ QUINTIC_REACH_2 = 0.018
 ETA = 1e-3  # half-width (fraction of the step) of the parabola of a Newton refinement
 
 
-@jit_inline
+@jit_hot
 def could_beat(summ, f0, f1, reach):
     """Whether a step whose force stays within ``reach`` (N) of its end values f0, f1 could
     set a new least or greatest value (the running ones in ``summ``)."""
     return max(f0, f1) + reach > summ[O_FMAX] or min(f0, f1) - reach < summ[O_FMIN]
 
 
-@jit_inline
+@jit_hot
 def cubic_turns(f0, d0, f1, d1, h):
     """Turning points in (0, 1) of the cubic Hermite p(theta) (p(0) = f0, p(1) = f1,
     p'(0) = h d0, p'(1) = h d1); nan where there is none. Returns (r1, r2, c, d) with
@@ -82,7 +82,7 @@ def cubic_turns(f0, d0, f1, d1, h):
     return r1, r2, c, d
 
 
-@jit_inline
+@jit_hot
 def force_at(md, wk, pc, t, s_idx, yk):
     """Elastic mesh force km * compression (N) at (t, yk) on the stiffness-table interval of
     ``s_idx`` (a step's, as its stages use)."""
@@ -98,7 +98,7 @@ def force_at(md, wk, pc, t, s_idx, yk):
     return km * (comp + mp[P_BACK] if pc.cs == 2 else comp)
 
 
-@jit_inline
+@jit_hot
 def stiffness_rates(md, wk, pc, t, s_idx, curvature):
     """(v1, km, d km/ds, d2 km/ds2) of the active pairs at time t (m/s, N/m, N/m^2, N/m^3),
     on the table interval of ``s_idx``; the curvature only when ``curvature`` (else 0)."""
@@ -135,7 +135,7 @@ def force_rate(md, wk, pc, t, s_idx, y):
     return dkm * v1 * comp + km * (y[7] - y[10] + y[8] + y[11])
 
 
-@jit_inline
+@jit_hot
 def force_rate_evaluated(md, wk, pc):
     """dF/dt (N/s) at the point ``wk`` was last evaluated at (a step's last stage: its end)."""
     if pc.cs == 1:
@@ -147,7 +147,7 @@ def force_rate_evaluated(md, wk, pc):
     return dkm * md.par[P_RB1] * pc.speed * sc[S_COMP] + sc[S_KM] * sc[S_DDELTA]
 
 
-@jit_inline
+@jit_hot
 def extension_force(md, wk, pc, sp, nf, th):
     """The mesh force at fraction ``th`` of step ``sp`` on its continuous extension."""
     interp(md, wk.dense, nf, th, wk.ytmp)
@@ -242,7 +242,7 @@ def refine_turns(md, wk, pc, hs, sp, scan, turns, ends):
         refine_turn(md, wk, pc, sp, nf, th, th_lim, sgn)
 
 
-@jit_inline
+@jit_hot
 def step_ends(md, wk, pc, hs, sp, d0):
     """(F, dF/dt) at the start and the end of the accepted step ``sp`` (N, N/s), right
     after its stages (the last one is its end); ``d0``: the start's rate if known (the end
@@ -288,7 +288,7 @@ def step_extremes(md, wk, pc, hs, sp, nf, ends, th_lim):
         refine_turns(md, wk, pc, hs, sp, (nf, th_lim), (t1, t2), ends)
 
 
-@jit_inline
+@jit_hot
 def quintic(f0, d0, e0, f1, d1, e1, h, th):
     """The quintic Hermite of (F, F', F'') at both ends of a stretch of h seconds, at
     fraction th: its value and first two derivatives in th."""
@@ -315,7 +315,7 @@ def quintic(f0, d0, e0, f1, d1, e1, h, th):
     return p, p1, p2
 
 
-@jit_inline
+@jit_hot
 def exact_terms(md, A, z, km, cs):
     """(F, F', F'') (N, N/s, N/s^2) of an exact stretch at z (z' = A z; F'' = km g . q''
     from the rows of A z, as `lti.lti_dd`)."""
@@ -330,7 +330,7 @@ def exact_terms(md, A, z, km, cs):
     return km * comp, km * (z[7] - z[10] + z[8] + z[11]), km * dd
 
 
-@jit_inline
+@jit_hot
 def evaluated_terms(wk, cs):
     """`exact_terms` at the point ``wk`` was last evaluated at (constant stiffness: F' and
     F'' are km delta' and km g . q'', already in hand)."""
@@ -371,7 +371,7 @@ def stretch_turns(summ, a, b, h, reach):
         record_force(summ, quintic(f0, d0, e0, f1, d1, e1, h, th)[0])
 
 
-@jit_inline
+@jit_hot
 def stretch_extremes(summ, a, b, h):
     """Interior extremes of the mesh force over an exact stretch of h seconds into the
     running least and greatest values ``summ`` (`Work.summary`), from ``a`` and ``b``, the

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..engine import CONTACT_BACK, CONTACT_SEPARATED, CONTACT_SLIP, CONTACT_STICK
-from ..jitcache import jit, jit_entry, jit_hot, jit_inline
+from ..jitcache import jit, jit_entry, jit_hot
 from .contact import (
     active_at,
     evaluate,
@@ -131,7 +131,7 @@ def start_checks(md, wk, pc, hs):
     return 0
 
 
-@jit_inline
+@jit_hot
 def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
     """Take the accepted step ``sp`` (FSAL: its last stage is the next first); at a knot,
     find the next one. Returns (t, t_knot)."""
@@ -160,7 +160,7 @@ def accept_step(md, wk, pc, hs, sp, h, t_knot, tb):
     return t, t_knot
 
 
-@jit_inline
+@jit_hot
 def piece_at(hs, nact):
     """The `Piece` starting at the current state with the ``nact`` pairs of `Work.active`."""
     st = hs.clock
@@ -232,7 +232,7 @@ def book_pair_change(md, wk, hs, nact):
     y[15] += 0.5 * (sc[S_KM] - km_before) * sc[S_COMP] ** 2
 
 
-@jit_inline
+@jit_hot
 def segment_start(md, wk, hs, tb):
     """The pair set of the segment ending at tb, and what changes with it; returns its size."""
     st = hs.clock
@@ -253,7 +253,7 @@ def segment_start(md, wk, hs, tb):
     return nact
 
 
-@jit_inline
+@jit_hot
 def segment(md, wk, hs, tb, lti):
     """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
     nact = segment_start(md, wk, hs, tb)
@@ -276,7 +276,7 @@ def segment(md, wk, hs, tb, lti):
     hs.mode[J_NPREV] = nact
 
 
-@jit_inline
+@jit_hot
 def current_active(md, wk, hs):
     """The pairs of the last segment (a state on a boundary keeps its set), else the set at
     the current mesh travel, into wk.active; returns their number."""
@@ -288,7 +288,7 @@ def current_active(md, wk, hs):
     return active_at(md, hs.clock[T_S], wk.active)
 
 
-@jit_inline
+@jit_hot
 def first_boundaries(md, wk, hs):
     """Offsets of the known boundaries in a base pitch (pair entry, pair exit, the pitch
     point for nominal friction) and the index of the next one of each kind ahead of the
@@ -315,7 +315,7 @@ def first_boundaries(md, wk, hs):
     return noff
 
 
-@jit_inline
+@jit_hot
 def next_boundary(md, wk, hs, noff, span, last_b):
     """The end of the next segment: the next known boundary before the end of the step
     (``span``: t and s at the step's start, its end t_end and the travel limit s_lim).
@@ -347,7 +347,7 @@ def next_boundary(md, wk, hs, noff, span, last_b):
     return tb, ib, bb, False
 
 
-@jit_inline
+@jit_hot
 def advance(md, wk, hs, t_end, torque, speed, lti):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end.
 
@@ -389,7 +389,7 @@ def advance(md, wk, hs, t_end, torque, speed, lti):
     hs.mode[J_NEVTOT] += int(summ[O_NEV])
 
 
-@jit_inline
+@jit_hot
 def eval_now(md, wk, hs):
     """Evaluate at the current state (active set of the last segment); returns nact."""
     st = hs.clock
@@ -398,7 +398,7 @@ def eval_now(md, wk, hs):
     return nact
 
 
-@jit_inline
+@jit_hot
 def contact_state(wk, hs, nact):
     """The `Outputs.contact_state` code of the current state."""
     cs = hs.mode[J_SEP]
@@ -445,7 +445,7 @@ def outputs_now(md, wk, hs):
     o[9] = pw[W_V, i_near] if nact > 0 else 0.0
 
 
-@jit_inline
+@jit_hot
 def run_grid(md, wk, hs, grid, inputs, rec, lti):
     """`advance` to every point of ``grid`` (``inputs``: torque, speed and load-shaft end
     rate of interval i, held from grid[i]) and record the outputs and step figures there,

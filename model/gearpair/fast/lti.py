@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..jitcache import jit, jit_hot, jit_inline
+from ..jitcache import jit, jit_hot
 from .contact import n_events, pair_k, pair_xi, rhs, solve_small
 from .events import events_at, falls, illinois, illinois_point, record_force
 from .extremes import evaluated_terms, exact_terms, stretch_extremes
@@ -55,7 +55,7 @@ PADE6 = np.array([math.factorial(12 - k) * math.factorial(6)
 G_DTE = (0.0, 1.0, 1.0, 0.0, -1.0, 1.0)  # d delta / d q
 
 
-@jit_inline
+@jit_hot
 def matmul(A, B, C):
     """C = A B (NZ x NZ)."""
     for i in range(NZ):
@@ -68,7 +68,7 @@ def matmul(A, B, C):
                     C[i, j] += a * B[k, j]
 
 
-@jit_inline
+@jit_hot
 def matvec(P, z, out):
     for i in range(NZ):
         acc = 0.0
@@ -187,7 +187,7 @@ def expm(A, h, E, S):
             E[i, j] *= d[i] / d[j]
 
 
-@jit_inline
+@jit_hot
 def z_to_y(z, y):
     for m in range(12):
         y[m] = z[m]
@@ -266,7 +266,7 @@ def lti_slot(md, wk, pc, hs, km, h):
     return k_new
 
 
-@jit_inline
+@jit_hot
 def free_index(nf, a):
     """The coordinate of free coordinate a: u1, u2 (torsional) or all six."""
     return (2, 5)[a] if nf == 2 else a
@@ -355,7 +355,7 @@ def lti_quiet(md, A, z, cs, W):
     return comp_p < 0.0 and bound <= -mp[P_RTOL] * comp_p
 
 
-@jit_inline
+@jit_hot
 def comp_of(par, z, cs):
     if cs == 1:
         return 0.0
@@ -363,7 +363,7 @@ def comp_of(par, z, cs):
     return d + par[P_BACK] if cs == 2 else d
 
 
-@jit_inline
+@jit_hot
 def stored_change(par, z0, z1, km, cs):
     """Stored energy at z1 minus at z0 (J): kinetic, supports, load shaft, mesh spring (as
     `energy`), each as k (x1 - x0)(x1 + x0) / 2 so that a small change of a large stored
@@ -396,7 +396,7 @@ def lti_finish(par, y, z0, z1, dt, km, cs):
     z_to_y(z1, y)
 
 
-@jit_inline
+@jit_hot
 def lti_dd(A, z):
     """delta'' = g . q'' of the exact solution at z (rows of A z)."""
     acc = 0.0
@@ -405,7 +405,7 @@ def lti_dd(A, z):
     return acc
 
 
-@jit_inline
+@jit_hot
 def lti_fint(par, A, z0, z1, h, km, cs, quiet):
     """Time integral (N s) of the mesh force km * compression over an exact stretch z0 -> z1
     of h seconds (A: the stretch's z' = A z): the two-point Hermite rule with the force and
@@ -501,7 +501,7 @@ def lti_switch(md, wk, pc, hs, lp, t, tn, jumped):
     switch(md, wk, pc, hs, best_e, hs.clock[T_S])
 
 
-@jit_inline
+@jit_hot
 def lti_substep(md, wk, pc, hs, lp, ks, t, tb):
     """Sub-step ks (1-based) from t: zn = lti_vecs[1] <- its exact step (every 256 the
     rest in one when the transient has died out). Returns (ks, end of the sub-step,
@@ -564,7 +564,7 @@ def lti_march(md, wk, pc, hs, lp, tb):
     return 0
 
 
-@jit_inline
+@jit_hot
 def piece_lti(md, wk, pc, hs, tb):
     """`piece` for constant coefficients: exact steps z <- expm(A h) z. A quiet piece
     (`lti_quiet`) is one step; otherwise steps of at most the sample spacing are scanned for

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from ..jitcache import jit, jit_hot, jit_inline
+from ..jitcache import jit, jit_hot
 from .contact import next_knot_dt, rhs
 from .layout import (
     I_IX,
@@ -32,7 +32,7 @@ from .tableaux import M_DOP853, RK_A, RK_C, RK_E, RK_E3, RK_NS, RK_Q
 EPS = 2.220446049250313e-16
 
 
-@jit_inline
+@jit_hot
 def stage(meth, stg, y, K, hh, ytmp):
     """ytmp = y + hh sum_j a[stg, j] K[j] (zero couplings skipped: DOP853 has many)."""
     for m in range(N_Y):
@@ -46,7 +46,7 @@ def stage(meth, stg, y, K, hh, ytmp):
         ytmp[m] = y[m] + hh * ytmp[m]
 
 
-@jit_inline
+@jit_hot
 def err_norm(md, yold, ynew, K, hh):
     """Weighted RMS norm of the local error estimate (DOP853: Hairer's blend of its 5th- and
     3rd-order estimates, which keeps the step from growing where the 5th-order one vanishes
@@ -113,7 +113,7 @@ def initial_step(md, wk, pc, hs, f0, t_lim):
     return min(100.0 * h0, h1, mp[P_MAXSTEP])
 
 
-@jit_inline
+@jit_hot
 def first_step(md, wk, pc, hs, tb):
     """Start the steps of a piece: the first stage at its start, the step size (the last
     one, else `initial_step`) and the next knot. Returns (h, t_knot)."""
@@ -154,7 +154,7 @@ def step_error(md, wk, pc, hs, sp):
     return err
 
 
-@jit_inline
+@jit_hot
 def next_h(md, err, h, sp, rejected):
     """Step size after an attempt with error norm ``err`` (accepted if err <= 1)."""
     expo = -1.0 / RK_Q[md.flag[I_METHOD]]
@@ -177,7 +177,7 @@ def next_h(md, err, h, sp, rejected):
     return hh * max(0.2, 0.8 * err ** expo)
 
 
-@jit_inline
+@jit_hot
 def plan_step(md, pc, t, h, t_knot, tb):
     """The next step from t: size, end, and whether it ends the piece or on a knot."""
     v1 = md.par[P_RB1] * pc.speed

@@ -4,7 +4,7 @@ of the time spent in stick and apart."""
 
 from __future__ import annotations
 
-from ..jitcache import jit, jit_inline
+from ..jitcache import jit, jit_hot
 from .contact import evaluate, n_sep_events, pair_v, sgn
 from .layout import (
     FR_STICK,
@@ -35,7 +35,7 @@ from .layout import (
 )
 
 
-@jit_inline
+@jit_hot
 def any_stuck(md, stuck):
     for j in range(md.flag[I_NP]):
         if stuck[j] != 0:
@@ -127,7 +127,7 @@ def switch(md, wk, pc, hs, label, s):
         dirs[j] = sgn(lam_e, 1.0)
 
 
-@jit_inline
+@jit_hot
 def kinetic(par, y):
     """Kinetic energy 0.5 q'^T M q' (J)."""
     e = 0.0

@@ -437,9 +437,9 @@ def _add_compiled_engine(package: Path, import_name: str, progress=_stderr) -> N
     target, _ = shipped.portable_target()
     cache = shipped.user_cache_dir()
     where = f" kept in {cache}/portable-{target}" if cache else ""
-    # the one slow step of a build: say what it is before a silence of minutes
-    progress(f"compiling the fast engine that the FMU ships, for {target} CPUs: a few "
-             f"minutes the first time, seconds when the compiled code{where} matches the "
+    # the one slow step of a build: say what it is before a silence of half a minute
+    progress(f"compiling the fast engine that the FMU ships, for {target} CPUs: about "
+             f"30 s the first time, seconds when the compiled code{where} matches the "
              "engine's sources")
     t0 = time.perf_counter()
     manifest = shipped.ship(package, import_name)
@@ -457,7 +457,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
     """Build ``<out>/GearPair.fmu`` and return its path.
 
     ``progress`` gets one line per step (default: printed to stderr as ``build_fmu: ...``);
-    compiling the engine the FMU ships takes a few minutes once per engine source."""
+    compiling the engine the FMU ships takes about 30 s once per engine source."""
     from pythonfmu.builder import FmuBuilder
 
     out, package, script = Path(out).resolve(), Path(package).resolve(), Path(script).resolve()

@@ -1,8 +1,8 @@
 """The first `gearpair simulate` on a machine says on stderr that it compiles the engine.
 
 A child process with empty user caches runs the command line with the fast engine; the test
-reads its stderr until the notice appears and then stops the child (the compile itself, about
-a minute, is not waited for)."""
+reads its stderr until the notice appears and then stops the child (the compile itself, 20-30 s,
+is not waited for)."""
 
 from __future__ import annotations
 

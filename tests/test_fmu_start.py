@@ -111,7 +111,7 @@ def test_first_start_loads_shipped_code(shipped_start):
 
 @pytest.mark.slow
 def test_mismatched_shipped_code_compiles_once(fmu_path, shipped_start, tmp_path):
-    """A shipped manifest for other engine sources: compile (about a minute), log it with
+    """A shipped manifest for other engine sources: compile (about 30 s), log it with
     status OK, save into the user cache, and step bit-identically to the shipped code."""
     unzip = Path(fmpy.extract(str(fmu_path), unzipdir=str(tmp_path / "fmu")))
     manifest = unzip / "resources" / "gearpair" / "_compiled" / "manifest.json"

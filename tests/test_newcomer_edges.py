@@ -133,7 +133,7 @@ def test_build_fmu_announces_the_engine_compile_before_it_starts(monkeypatch, tm
     _build_module()._add_compiled_engine(tmp_path, "gearpair")
     before = seen[0]
     assert before.startswith("build_fmu: compiling the fast engine that the FMU ships")
-    assert "a few minutes the first time" in before
+    assert "about 30 s the first time" in before
     after = capsys.readouterr().err
     assert after.startswith("build_fmu: fast engine compiled in ") and "42 files" in after
 
@@ -205,7 +205,7 @@ class _Stop(Exception):
 
 
 def test_bench_compiles_the_fmus_engine_beside_its_warm_up_and_before_any_timing(monkeypatch):
-    """The FMU's engine (compiled for a portable CPU, minutes once per engine change) is
+    """The FMU's engine (compiled for a portable CPU, about 30 s once per engine change) is
     compiled in a child beside the warm-up, and finished before the first timed section."""
     import threading
 

@@ -137,7 +137,7 @@ def _announce_compile() -> None:
         return
     _NOTICE["given"] = True
     where = f"; later runs load it from {CACHE_PATH}" if CACHE_PATH else ""
-    print(f"gearpair: compiling the fast engine once (about a minute){where}",
+    print(f"gearpair: compiling the fast engine once (20-30 s){where}",
           file=sys.stderr, flush=True)
 
 

@@ -1,11 +1,12 @@
 """Compiled code of the fast engine shipped with a copy of the package (the FMU's).
 
-A first compile of the engine takes about a minute. `ship` compiles it once at build time, in
-a child process, for a portable CPU (`portable_target`), and puts numba's cache files with a
-manifest (engine key, Python/numba/llvmlite/numpy versions, CPU target and the host CPU
-features it needs) into ``<package>/_compiled``. `gearpair.jitcache` consults them before the
-user cache when the manifest matches the running interpreter and CPU, and otherwise compiles
-into the user cache as before. This module does not import numba (the builder calls it).
+A first compile of the engine takes about 30 s on a 2-core machine. `ship` compiles it once
+at build time, in a child process, for a portable CPU (`portable_target`), and puts numba's
+cache files with a manifest (engine key, Python/numba/llvmlite/numpy versions, CPU target and
+the host CPU features it needs) into ``<package>/_compiled``. `gearpair.jitcache` consults
+them before the user cache when the manifest matches the running interpreter and CPU, and
+otherwise compiles into the user cache as before. This module does not import numba (the
+builder calls it).
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     size = p.add_mutually_exclusive_group()
     size.add_argument("--quick", action="store_true", help="tiny horizons, for tests "
                       "(about 20 s; the first run after an engine change compiles the engine "
-                      "and the FMU's copy of it, minutes, and says so)")
+                      "and the FMU's copy of it, about a minute, and says so)")
     size.add_argument("--full", action="store_true", help="longer runs, more tolerances, "
                       "memory (tens of minutes)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")

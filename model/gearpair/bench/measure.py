@@ -48,8 +48,8 @@ def warm_up(progress: Progress = _quiet) -> float:
 class _FmuEngineCompile:
     """The engine that GearPair.fmu ships, compiled for a portable CPU in a child process
     (`gearpair.shipped.ship`, on a copy of the package) while this process warms its own
-    engine: on a first run after an engine change the two compiles take minutes each, and
-    on two cores they overlap. `build_fmus` then finds the FMU's engine in the cache."""
+    engine: on a first run after an engine change the two compiles take about 30 s each,
+    and on two cores they overlap. `build_fmus` then finds the FMU's engine in the cache."""
 
     def __init__(self, progress: Progress):
         import threading
@@ -77,8 +77,8 @@ class _FmuEngineCompile:
     def wait(self) -> None:
         """Block until the compile is done (before any timed section) and say how it went."""
         if self.thread.is_alive():
-            self.progress("waiting for the FMU's engine (seconds from the cache, minutes when "
-                          "it compiles, once per engine change)")
+            self.progress("waiting for the FMU's engine (seconds from the cache, about 30 s "
+                          "when it compiles, once per engine change)")
         self.thread.join()
         took = time.perf_counter() - self.t0
         if self.error:
@@ -101,7 +101,7 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
     result: dict = {"machine": machine_info(), "settings": asdict(s)}
     ahead = None
     if s.fmu:
-        progress("compiling the FMU's engine in a child process (a few minutes once per "
+        progress("compiling the FMU's engine in a child process (about 30 s once per "
                  "engine change; seconds when cached) beside this process's warm-up")
         ahead = _FmuEngineCompile(progress)
     result["warm_up_s"] = warm_up(progress)

@@ -77,3 +77,16 @@ def test_calling_an_internal_function_from_python_is_a_type_error_not_a_crash():
 def test_hot_functions_are_always_inlined(name):
     d = dict(dispatchers())[name]
     assert d.targetoptions.get("forceinline") is True
+
+
+def test_compiled_code_neither_prints_nor_raises():
+    # an internal function has no environment pointer (`jitlink`): what print() or a raise
+    # with run-time values inside compiled code would read
+    import ast
+
+    for name, d in dispatchers():
+        tree = ast.parse(inspect.getsource(d.py_func).lstrip())
+        for node in ast.walk(tree):
+            assert not isinstance(node, ast.Raise), name
+            assert not (isinstance(node, ast.Call) and getattr(node.func, "id", "") == "print"), \
+                name

@@ -15,6 +15,8 @@ and compiles the whole once. The arithmetic is the same IR through the same LLVM
 without fast-math, so results are bit for bit those of the level-by-level build
 (`tests/test_golden.py`). Such functions have no Python wrapper and cannot be cached on
 their own (a cache holds machine code); the entry points, which contain them, are cached.
+Nor do they get numba's environment pointer (what ``print`` or Python objects inside
+compiled code would need): the engine's compiled code uses neither, and keeps it that way.
 
 This leans on numba internals (`numba.core.codegen.JITCodeLibrary`, the compiler pipeline);
 `LINK_ONLY` is None, and the engine compiles level by level as numba does by default, when

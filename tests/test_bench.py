@@ -1,6 +1,6 @@
 """The benchmark script (gearpair.bench) on its quick settings: structure and physics only.
 
-Wall times are never asserted (the machine is shared). One quick run (about 20 s once the
+Wall times are never asserted (the machine is shared). One quick run (about 11 s once the
 fast engine's kernels are cached; the first run on a machine compiles them) feeds every test.
 """
 

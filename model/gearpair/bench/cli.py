@@ -22,8 +22,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
                        "(docs/bench.md)", description=DESCRIPTION)
     size = p.add_mutually_exclusive_group()
     size.add_argument("--quick", action="store_true", help="tiny horizons, for tests "
-                      "(about 20 s; the first run after an engine change compiles the engine "
-                      "and the FMU's copy of it, about a minute, and says so)")
+                      "(about 11 s; the first run after an engine change also compiles the "
+                      "engine and the FMU's copy of it side by side, about 30 s, and says so)")
     size.add_argument("--full", action="store_true", help="longer runs, more tolerances, "
                       "memory (tens of minutes)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")

@@ -1,12 +1,13 @@
 """Where the fast engine's compiled code is cached, and the ``jit`` decorators that use it.
 
-The fast engine (`gearpair.fast`, a module today, a package of several modules later) is
-compiled with numba and cached on disk (``cache=True``). Unless ``NUMBA_CACHE_DIR`` is set, the
-cache lives in a per-user directory (``$XDG_CACHE_HOME/gearpair/numba``,
-``~/.cache/gearpair/numba``, or ``%LOCALAPPDATA%/gearpair/numba``) keyed by the content of the
-engine's source files rather than their location, so a copy of the package extracted to a
-fresh temporary directory (an FMU instantiation) finds the code compiled by an earlier one. If
-no cache directory can be used, the functions are compiled in memory on first use.
+The fast engine (the package `gearpair.fast`) is compiled with numba, and its entry points
+are cached on disk (``cache=True``; the functions they call are compiled into them, see
+`gearpair.jitlink`). Unless ``NUMBA_CACHE_DIR`` is set, the cache lives in a per-user
+directory (``$XDG_CACHE_HOME/gearpair/numba``, ``~/.cache/gearpair/numba``, or
+``%LOCALAPPDATA%/gearpair/numba``) keyed by the content of the engine's source files rather
+than their location, so a copy of the package extracted to a fresh temporary directory (an
+FMU instantiation) finds the code compiled by an earlier one. If no cache directory can be
+used, the functions are compiled in memory on first use.
 
 This module must be imported before numba (it sets ``NUMBA_CACHE_DIR``); the engine imports
 `jit_entry`, `jit` and `jit_hot` from here.

@@ -481,3 +481,41 @@ def test_schedules_sample_a_grid_as_they_do_point_by_point():
     for f in (Constant(3.0), Ramp(1.0, 5.0, 0.2, 0.7), Step(1.0, 2.0, 0.5),
               Series((0.0, 0.5, 1.0), (1.0, 3.0, 2.0))):
         assert np.array_equal(f.sample(t), np.array([f(x) for x in t])), f
+
+
+def test_the_default_fmu_is_rebuilt_when_any_file_it_bundles_is_newer(tmp_path, monkeypatch,
+                                                                       capsys):
+    """`--engine fmu` never runs stale physics: a change in the fast engine (a sub-package)
+    or in the FMU's C layer rebuilds dist/GearPair.fmu, as one in the package's top level."""
+    import os
+
+    from gearpair import scenes
+
+    builds = []
+    (tmp_path / "build_fmu.py").write_text(
+        "from pathlib import Path\n"
+        "def build(out):\n"
+        "    Path(out).mkdir(exist_ok=True)\n"
+        "    (Path(out) / 'GearPair.fmu').write_text('fmu')\n")
+    for rel in ("fmu_src/GearPair.py", "fmu_src/c/gearpair_shim.c", "model/gearpair/params.py",
+                "model/gearpair/fast/loop.py"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("")
+        os.utime(tmp_path / rel, (1e9, 1e9))
+    os.utime(tmp_path / "build_fmu.py", (1e9, 1e9))
+    monkeypatch.setattr(scenes, "_ROOT", tmp_path)
+    fmu = tmp_path / "dist" / "GearPair.fmu"
+
+    def run():
+        before = fmu.stat().st_mtime_ns if fmu.is_file() else None
+        scenes.default_fmu()
+        os.utime(fmu, (2e9, 2e9))  # built "now"
+        builds.append(before is None or "rebuilding stale" in capsys.readouterr().err)
+
+    run()
+    run()  # nothing changed: no rebuild
+    for rel in ("model/gearpair/fast/loop.py", "fmu_src/c/gearpair_shim.c"):
+        os.utime(tmp_path / rel, (3e9, 3e9))  # edited after the build
+        run()
+        os.utime(tmp_path / rel, (1e9, 1e9))
+    assert builds == [True, False, True, True]

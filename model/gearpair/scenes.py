@@ -259,13 +259,20 @@ class Scene:
 
 
 # -- the FMU as an engine ------------------------------------------------------------------------
+def fmu_sources() -> list[Path]:
+    """The files ``dist/GearPair.fmu`` is built from: build_fmu.py, the slave and its C
+    layer (``fmu_src``), and the package it bundles, sub-packages (the fast engine) included."""
+    return [_ROOT / "build_fmu.py",
+            *(p for p in sorted((_ROOT / "fmu_src").rglob("*")) if p.suffix in (".py", ".c", ".h")),
+            *sorted((_ROOT / "model" / "gearpair").rglob("*.py"))]
+
+
 def default_fmu(rebuild_stale: bool = True) -> Path:
     """``dist/GearPair.fmu`` of the repository, built with build_fmu.py if missing (or older
     than the files it is built from, so a run never uses stale physics)."""
     script = _ROOT / "build_fmu.py"
     fmu = _ROOT / "dist" / "GearPair.fmu"
-    sources = [script, _ROOT / "fmu_src" / "GearPair.py",
-               *(_ROOT / "model" / "gearpair").glob("*.py")]
+    sources = fmu_sources()
     if not script.is_file():
         if fmu.is_file():
             return fmu

@@ -90,3 +90,16 @@ def test_compiled_code_neither_prints_nor_raises():
             assert not isinstance(node, ast.Raise), name
             assert not (isinstance(node, ast.Call) and getattr(node.func, "id", "") == "print"), \
                 name
+
+
+def test_the_engine_imports_with_numba_jit_disabled():
+    # NUMBA_DISABLE_JIT=1 (numba's debugging switch) leaves plain functions, which the
+    # compiled-only guard must leave alone
+    import os
+
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    res = subprocess.run([sys.executable, "-c", "import gearpair.fast.loop as m; "
+                          "print(type(m.piece).__name__)"], capture_output=True, text=True,
+                         env=env, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "function"

@@ -124,6 +124,10 @@ except Exception as e:  # noqa: BLE001 - other numba internals: compile as numba
 def compiled_only(dispatcher):
     """Make a dispatcher without a Python wrapper refuse calls from Python (numba would
     jump to a null address) with a TypeError; compiled callers are unaffected."""
+    from numba.core.dispatcher import Dispatcher
+
+    if not isinstance(dispatcher, Dispatcher):  # NUMBA_DISABLE_JIT: the plain function
+        return dispatcher
     cls = type(dispatcher)
     sub = _SUBCLASSES.get(cls)
     if sub is None:

@@ -284,8 +284,8 @@ def jit_entry(func):
 
 def jit(func):
     """An internal function of the engine (called from compiled code only), compiled once
-    and linked into its callers, where LLVM decides whether to inline it: for the code off
-    the hot path (event location, switches, the exact propagator's set-up)."""
+    and linked into its callers, where LLVM decides whether to inline it: for code that
+    runs per event, per piece or per pair change rather than per Runge-Kutta stage."""
     return jitlink.compiled_only(_with_engine_cache(numba.njit(**_INTERNAL)(func)))
 
 

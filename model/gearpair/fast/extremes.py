@@ -83,6 +83,14 @@ def cubic_turns(f0, d0, f1, d1, h):
 
 
 @jit_hot
+def compression(md, pc, y):
+    """Mesh compression (m) at state y: delta on the drive flank, delta + b on the back
+    flank (the mesh force is km times it; apart it is not used)."""
+    comp = y[1] - y[4] + y[2] + y[5]
+    return comp + md.par[P_BACK] if pc.cs == 2 else comp
+
+
+@jit_hot
 def force_at(md, wk, pc, t, s_idx, yk):
     """Elastic mesh force km * compression (N) at (t, yk) on the stiffness-table interval of
     ``s_idx`` (a step's, as its stages use)."""
@@ -94,8 +102,7 @@ def force_at(md, wk, pc, t, s_idx, yk):
     for i in range(pc.nact):
         xi = pair_xi(mp, s, wk.active[i])
         km += pair_k(md, xi, xi + (s_idx - s), pc.nact)
-    comp = yk[1] - yk[4] + yk[2] + yk[5]
-    return km * (comp + mp[P_BACK] if pc.cs == 2 else comp)
+    return km * compression(md, pc, yk)
 
 
 @jit_hot
@@ -129,10 +136,7 @@ def force_rate(md, wk, pc, t, s_idx, y):
     if pc.cs == 1:
         return 0.0
     v1, km, dkm, _ = stiffness_rates(md, wk, pc, t, s_idx, False)
-    comp = y[1] - y[4] + y[2] + y[5]
-    if pc.cs == 2:
-        comp += md.par[P_BACK]
-    return dkm * v1 * comp + km * (y[7] - y[10] + y[8] + y[11])
+    return dkm * v1 * compression(md, pc, y) + km * (y[7] - y[10] + y[8] + y[11])
 
 
 @jit_hot
@@ -186,9 +190,7 @@ def force_curvature(md, wk, pc, t, s_idx, y, yd):
     if pc.cs == 1:
         return 0.0
     v1, km, dkm, d2km = stiffness_rates(md, wk, pc, t, s_idx, True)
-    comp = y[1] - y[4] + y[2] + y[5]
-    if pc.cs == 2:
-        comp += md.par[P_BACK]
+    comp = compression(md, pc, y)
     return (d2km * v1 * v1 * comp + 2.0 * dkm * v1 * (y[7] - y[10] + y[8] + y[11])
             + km * (yd[7] - yd[10] + yd[8] + yd[11]))
 

@@ -14,17 +14,14 @@ import pytest
 
 from gearpair import GearParams
 from gearpair.cli import main
+from gearpair.inputs import Constant, Ramp, Series, Step
 from gearpair.params import RPM
 from gearpair.scenes import (
     OUTPUT_NAMES,
-    Constant,
     OutputSpec,
-    Ramp,
     Scene,
     SceneError,
-    Series,
     Solver,
-    Step,
     load_scene,
 )
 
@@ -475,8 +472,6 @@ def test_docs_list_every_key():
 def test_schedules_sample_a_grid_as_they_do_point_by_point():
     """`sample` (one call for a whole grid, what the compiled recorder is fed) equals the
     pointwise schedule exactly, on both sides of every breakpoint."""
-    from gearpair.scenes import Constant, Ramp, Series, Step
-
     t = np.r_[np.linspace(-0.1, 1.2, 1001), 0.5 - 1e-13, 0.5 + 1e-13]
     for f in (Constant(3.0), Ramp(1.0, 5.0, 0.2, 0.7), Step(1.0, 2.0, 0.5),
               Series((0.0, 0.5, 1.0), (1.0, 3.0, 2.0))):

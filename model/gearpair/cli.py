@@ -182,7 +182,8 @@ _RUN_FLAGS = {"dt": 1e-4, "steady_from": 0.5, "torque": OperatingPoint().torque,
 def _scene_from_flags(args):
     """The flag-based run as a scene: constant inputs, Table 1 data with ``--mu`` and
     ``--set``."""
-    from .scenes import Constant, Inputs, OutputSpec, Scene, Solver
+    from .inputs import Constant
+    from .scenes import Inputs, OutputSpec, Scene, Solver
 
     if args.mu is not None and "mu" in parse_set(args.set):
         raise ValueError("give --mu or --set mu=..., not both")
@@ -256,7 +257,7 @@ def check_figure_format(flag: str, path: str) -> None:
 
 def _schedule_text(f, unit: str, scale: float = 1.0) -> str:
     """An input schedule in a few words (constant value, ramp, step, CSV series)."""
-    from .scenes import Ramp, Series, Step
+    from .inputs import Ramp, Series, Step
 
     if isinstance(f, Ramp):
         return f"{f.start * scale:g}->{f.end * scale:g} {unit} ramp"
@@ -289,7 +290,7 @@ def plot_title(scene, engine: str) -> str:
 
 def _outside_model(scene) -> str | None:
     """Why a run with a constant torque lies outside the model (as a sweep's ``invalid``)."""
-    from .scenes import Constant
+    from .inputs import Constant
     from .sweep import outside_validity
 
     torque = scene.inputs.torque

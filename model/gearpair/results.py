@@ -18,6 +18,7 @@ import numpy as np
 
 from .effects import Effects
 from .engine import CONTACT_BACK, Engine, Outputs
+from .inputs import Constant
 from .params import RPM, GearParams, OperatingPoint
 
 Input = float | Callable[[float], float]
@@ -223,21 +224,6 @@ class Trajectory:
         if title:
             fig.suptitle(title)
         fig.savefig(Path(path), dpi=120)
-
-
-@dataclass(frozen=True)
-class Constant:
-    """The same value at all times (an input schedule; `sample` feeds a whole grid to the
-    compiled recorder in one call)."""
-
-    value: float
-
-    def __call__(self, t: float) -> float:
-        return self.value
-
-    def sample(self, t: np.ndarray) -> np.ndarray:
-        """Values at the times ``t`` (one vectorized call for a whole grid)."""
-        return np.full(np.shape(t), float(self.value))
 
 
 def _as_fn(x: Input) -> Callable[[float], float]:

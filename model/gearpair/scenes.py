@@ -26,8 +26,9 @@ import numpy as np
 from .effects import Effects, StiffnessSpec
 from .equations import check_friction_coefficients
 from .geometry import BORE_RATIO_MAX
+from .inputs import Constant, Ramp, Schedule, Series, Step
 from .params import RPM, RTOL_MAX, RTOL_MIN, GearParams, OperatingPoint, check_range, unit_name
-from .results import UNITS, Constant, Trajectory, simulate
+from .results import UNITS, Trajectory, simulate
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -38,7 +39,6 @@ ENGINES = ("fast", "reference", "fmu")
 OUTPUT_NAMES = tuple(n for n in UNITS if n != "time")
 T_END_MAX = 3600.0  # s; longer runs belong in a sweep, not one scene
 STEP_MIN, STEP_MAX = 1e-7, 1.0  # s, communication step and output interval
-_T_TOL = 1e-12  # s: a sample this close to a step's `at` counts as at it (grid round-off)
 _ROOT = Path(__file__).resolve().parents[2]  # the repository (build_fmu.py, dist/)
 
 # Inputs: scene key -> (signal, unit shown in messages, factor to SI).
@@ -54,82 +54,6 @@ class SceneWarning(UserWarning):
 
 class SceneError(ValueError):
     """A scene file is invalid; the message names the file and the key."""
-
-
-# -- input schedules (callables of time, SI values) ----------------------------------------------
-@dataclass(frozen=True)
-class Ramp:
-    """``start`` until ``t0``, linear to ``end`` at ``t1`` (s), ``end`` after."""
-
-    start: float
-    end: float
-    t0: float
-    t1: float
-
-    def __call__(self, t: float) -> float:
-        if t <= self.t0:
-            return self.start
-        if t >= self.t1:
-            return self.end
-        return self.start + (self.end - self.start) * (t - self.t0) / (self.t1 - self.t0)
-
-    def sample(self, t: np.ndarray) -> np.ndarray:
-        """Values at the times ``t`` (one vectorized call for a whole grid)."""
-        t = np.asarray(t, dtype=float)
-        with np.errstate(divide="ignore", invalid="ignore"):  # t1 == t0: the middle is unused
-            mid = self.start + (self.end - self.start) * (t - self.t0) / (self.t1 - self.t0)
-        return np.where(t <= self.t0, float(self.start), np.where(t >= self.t1,
-                                                                  float(self.end), mid))
-
-
-@dataclass(frozen=True)
-class Step:
-    """``before`` for t < ``at`` (s), ``after`` from ``at`` on."""
-
-    before: float
-    after: float
-    at: float
-
-    def __call__(self, t: float) -> float:
-        return self.after if t >= self.at - _T_TOL else self.before
-
-    def sample(self, t: np.ndarray) -> np.ndarray:
-        """Values at the times ``t`` (one vectorized call for a whole grid)."""
-        return np.where(np.asarray(t, dtype=float) >= self.at - _T_TOL, float(self.after),
-                        float(self.before))
-
-
-@dataclass(frozen=True)
-class Series:
-    """A time series (from CSV): linear between rows, first/last value held outside.
-
-    Attributes
-    ----------
-    time : s, strictly increasing
-    values : SI values at ``time``
-    source : where it came from (``file:column``), for messages
-    """
-
-    time: tuple[float, ...]
-    values: tuple[float, ...]
-    source: str = ""
-    _t: np.ndarray = field(init=False, repr=False, compare=False)
-    _v: np.ndarray = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        # Arrays once: the loop samples the schedule at every communication point.
-        object.__setattr__(self, "_t", np.asarray(self.time, dtype=float))
-        object.__setattr__(self, "_v", np.asarray(self.values, dtype=float))
-
-    def __call__(self, t: float) -> float:
-        return float(np.interp(t, self._t, self._v))
-
-    def sample(self, t: np.ndarray) -> np.ndarray:
-        """Values at the times ``t`` (one vectorized call for a whole grid)."""
-        return np.interp(np.asarray(t, dtype=float), self._t, self._v)
-
-
-Schedule = Constant | Ramp | Step | Series
 
 
 # -- scene sections --------------------------------------------------------------------------------

@@ -143,7 +143,6 @@ def complete_model_description(xml: bytes, spec: list[dict]) -> bytes:
     if missing:
         raise RuntimeError(f"variables missing from modelDescription.xml: {sorted(missing)}")
 
-    inputs = [index[v["name"]] for v in spec if v["causality"] == "input"]
     for el in root.findall("ModelStructure"):
         root.remove(el)
     structure = ET.Element("ModelStructure")
@@ -153,8 +152,9 @@ def complete_model_description(xml: bytes, spec: list[dict]) -> bytes:
         if v["causality"] != "output":
             continue
         i = str(index[v["name"]])
-        ET.SubElement(outs, "Unknown", index=i, dependencies=" ".join(map(str, inputs)),
-                      dependenciesKind=" ".join(["dependent"] * len(inputs)))
+        # outputs change only in fmi2DoStep: no direct dependency on an input at a
+        # communication point (a master sorting by them would see false algebraic loops)
+        ET.SubElement(outs, "Unknown", index=i, dependencies="", dependenciesKind="")
         if v["name"] == "n_events":  # 0 before the first step: depends on nothing
             ET.SubElement(init, "Unknown", index=i, dependencies="", dependenciesKind="")
         else:  # no dependencies attribute: depends on all inputs and parameters

@@ -126,6 +126,28 @@ _APPENDED_FIELDS = tuple(row[0] for row in APPENDED_OUTPUTS)
 _VALUE_ORDER = _OUTPUT_FIELDS[:3] + ("contact_state",) + _OUTPUT_FIELDS[3:]  # `_copy_values`
 
 
+def _resources_folder(resources: str | None) -> str | None:
+    """The resources folder as a normal absolute path.
+
+    The FMU's C layer hands pythonfmu ``file://`` + an absolute path, which pythonfmu turns
+    into that path; a path with leading ``//`` (a ``file:////abs`` location given to
+    pythonfmu directly) or a leftover ``file:`` URI names the same folder.
+    """
+    if not resources:
+        return resources
+    path = resources
+    if path[:5].lower() == "file:":
+        from urllib.parse import unquote, urlsplit
+
+        parts = urlsplit(path)
+        if parts.netloc not in ("", "localhost"):
+            return path
+        path = unquote(parts.path)
+    if path.startswith("//"):
+        path = "/" + path.lstrip("/")
+    return os.path.abspath(path)
+
+
 def _unlist_resources(resources: str | None) -> None:
     """Take the resources folder off ``sys.path`` again.
 
@@ -137,10 +159,9 @@ def _unlist_resources(resources: str | None) -> None:
     just ``binaries`` and ``resources``): pythonfmu's builder instantiates the slave with the
     script's own folder, which it removes itself.
     """
-    if resources and os.path.isdir(os.path.join(os.path.dirname(os.path.abspath(resources)),
-                                                "binaries")):
-        where = os.path.abspath(resources)
-        sys.path[:] = [p for p in sys.path if not (p and os.path.abspath(p) == where)]
+    where = _resources_folder(resources)
+    if where and os.path.isdir(os.path.join(os.path.dirname(where), "binaries")):
+        sys.path[:] = [p for p in sys.path if not (p and _resources_folder(p) == where)]
 
 
 def _package_alive(mod) -> bool:
@@ -332,7 +353,7 @@ class GearPair(Fmi2Slave):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         _unlist_resources(self.resources)
-        self._gp = _import_gearpair(self.resources)
+        self._gp = _import_gearpair(_resources_folder(self.resources))
         self._warn_foreign_package()
         self._spec = interface(self._gp)
         self._param_names = tuple(v["name"] for v in self._spec if v["causality"] == "parameter")
@@ -377,11 +398,19 @@ class GearPair(Fmi2Slave):
         self._params_set = True
 
     def _warn_foreign_package(self) -> None:
+        """Warn when the package running is not this FMU's copy (only then: the folder is
+        compared as a file, whatever form of path the host's resource location gave)."""
         where = os.path.dirname(os.path.abspath(getattr(self._gp, "__file__", None) or
                                                 list(self._gp.__path__)[0]))
-        res = self.resources
-        if res and os.path.isdir(res) and \
-                os.path.commonpath([os.path.abspath(res), where]) != os.path.abspath(res):
+        res = _resources_folder(self.resources)
+        own = os.path.join(res, "gearpair") if res else ""
+        if not os.path.isdir(own):
+            return  # no bundled copy (the builder's instance): nothing to compare with
+        try:
+            same = os.path.samefile(own, where)
+        except OSError:
+            same = False
+        if not same:
             self.log(f"running the gearpair package at {where} (an earlier FMU instance's copy "
                      f"or the installed one), not the copy in this FMU's resources {res}",
                      Fmi2Status.warning)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ctypes import byref
+
 from fmpy.fmi2 import (
     FMU2Slave,
     calloc,
@@ -9,6 +11,9 @@ from fmpy.fmi2 import (
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
+    fmi2CoSimulation,
+    fmi2False,
+    fmi2True,
     free,
 )
 
@@ -18,7 +23,8 @@ class LoggingSlave:
     extracted FMU; ``messages`` holds (status, text) of every log call and ``vr`` maps names
     to value references."""
 
-    def __init__(self, md, unzipdir: str, name: str = "gp", logging_on: bool = True) -> None:
+    def __init__(self, md, unzipdir: str, name: str = "gp", logging_on: bool = True,
+                 resource_location: str | None = None) -> None:
         self.md = md
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.messages: list[tuple[int, str]] = []
@@ -33,7 +39,15 @@ class LoggingSlave:
         self._cb = cb  # keep the ctypes callbacks alive
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(callbacks=cb, loggingOn=logging_on)
+        if resource_location is None:
+            self.fmu.instantiate(callbacks=cb, loggingOn=logging_on)
+        else:  # a resource location of the caller's form (fmpy writes file:///abs)
+            self.fmu.callbacks = cb
+            self.fmu.component = self.fmu.fmi2Instantiate(
+                name.encode(), fmi2CoSimulation, md.guid.encode(), resource_location.encode(),
+                byref(cb), fmi2False, fmi2True if logging_on else fmi2False)
+            if self.fmu.component is None:
+                raise RuntimeError(f"fmi2Instantiate failed: {self.messages}")
 
     def set(self, **values) -> None:
         """fmi2Set* by name: a bool as Boolean, an int as Integer, anything else as Real."""

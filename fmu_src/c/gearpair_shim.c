@@ -31,6 +31,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <wchar.h>
 
 #include "fmi2_abi.h"
@@ -424,6 +425,11 @@ static void flush_log(Shim *s) {
     settle(s, inner.get_real(s->inner, &none, 0, &unused));
 }
 
+static int hexval(char c) {
+    return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10
+           : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+}
+
 static State *find_state(Shim *s, fmi2FMUstate p, State ***link) {
     State **l = &s->states;
     for (State *st = s->states; st; l = &st->next, st = st->next)
@@ -443,6 +449,39 @@ static State *new_state(Shim *s, fmi2FMUstate in, Mode mode) {
     st->next = s->states;
     s->states = st;
     return st;
+}
+
+/* The folder a resource location names, as an absolute path (percent-decoded), or -1.
+ * Masters write the same folder in several forms: file:///abs (the usual), file:////abs
+ * (OMSimulator: "file:///" + an absolute path), file:/abs and file://localhost/abs; a
+ * plain absolute path is taken as it is. pythonfmu only strips a leading "file://", so
+ * every form but the first reached the slave as a wrong path (//abs, localhost/abs). */
+static int resource_folder(const char *uri, char *out, size_t n) {
+    if (!uri || !n) return -1;
+    const char *p = uri;
+    if (!strncasecmp(p, "file:", 5)) {
+        p += 5;
+        if (p[0] == '/' && p[1] == '/') { /* an authority: empty or localhost */
+            const char *auth = p + 2, *end = strchr(auth, '/');
+            size_t len = end ? (size_t)(end - auth) : strlen(auth);
+            if (len && !(len == 9 && !strncasecmp(auth, "localhost", 9))) return -1;
+            p = end ? end : auth + len;
+        }
+    }
+    if (p[0] != '/') return -1;
+    while (p[1] == '/') p++; /* //abs names /abs here (POSIX leaves // to the system) */
+    size_t o = 0;
+    for (; *p; p++) {
+        int c = (unsigned char)*p, hi, lo;
+        if (c == '%' && (hi = hexval(p[1])) >= 0 && (lo = hexval(p[2])) >= 0) {
+            c = hi * 16 + lo;
+            p += 2;
+        }
+        if (o + 1 >= n) return -1;
+        out[o++] = (char)c;
+    }
+    out[o] = 0;
+    return 0;
 }
 
 /* ======================================================================================== */
@@ -469,6 +508,14 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
             : "(null)", GP_GUID);
         goto fail;
     }
+    /* pythonfmu gets the folder as file:// + an absolute path, the one form it reads */
+    char folder[4096], uri[4096 + 8];
+    if (resource_folder(resources, folder, sizeof folder)) {
+        say(s, fmi2Error, "fmi2Instantiate: the resource location %s is not a local file URI "
+            "(file:///path)", resources ? resources : "(null)");
+        goto fail;
+    }
+    snprintf(uri, sizeof uri, "file://%s", folder);
     char err[1024] = "";
     pthread_mutex_lock(&g_lock);
     int bad = load_inner(err, sizeof err);
@@ -480,7 +527,7 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
             s->mine.allocateMemory = calloc;
             s->mine.freeMemory = free;
         }
-        s->inner = inner.instantiate(name, type, guid, resources, &s->mine, visible, fmi2True);
+        s->inner = inner.instantiate(name, type, guid, uri, &s->mine, visible, fmi2True);
         /* pythonfmu keeps its interpreter guard in a static shared_ptr and releases it twice
          * at exit (a C++ static destructor, then an ELF destructor that reads the freed
          * block). Emptying the static now makes both no-ops; the instance holds its own

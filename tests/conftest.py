@@ -32,3 +32,18 @@ def md(fmu_path):
     """The FMU's model description, read by fmpy."""
     fmpy = pytest.importorskip("fmpy")
     return fmpy.read_model_description(str(fmu_path))
+
+
+@pytest.fixture
+def no_runs(monkeypatch):
+    """Any run (scene, sweep, bench) fails the test: the checks must come first."""
+    import gearpair.bench
+    import gearpair.sweep
+    from gearpair.scenes import Scene
+
+    def ran(*a, **k):
+        raise AssertionError("the run started before the output check")
+
+    monkeypatch.setattr(Scene, "run", ran)
+    monkeypatch.setattr(gearpair.sweep, "run_sweep", ran)
+    monkeypatch.setattr(gearpair.bench, "run", ran)

@@ -1,4 +1,4 @@
-"""Bad input (issue #7): every invalid value gets a clear error that names it, nothing
+"""Bad input: every invalid value gets a clear error that names it, nothing
 crashes, and the state is unchanged.
 
 - Core: every `GearParams` field below/above its range, NaN, +-inf and a non-number; every
@@ -418,3 +418,42 @@ def test_scene_refuses_non_finite_inputs(tmp_path, line, key):
     with pytest.raises(ValueError) as exc:
         scenes.load_scene(path)
     assert names_it(str(exc.value), key), str(exc.value)
+
+
+# -- one range, one wording, everywhere ----------------------------------------------------
+def test_one_rtol_range_everywhere(capsys):
+    import importlib.util
+    from pathlib import Path
+
+    from gearpair.cli import main
+    from gearpair.fast import FastEngine
+    from gearpair.params import RTOL_MAX, RTOL_MIN
+    from gearpair.reference import ReferenceEngine
+    from gearpair.scenes import SceneError, parse_scene
+
+    ROOT = Path(__file__).resolve().parents[1]
+    assert (RTOL_MIN, RTOL_MAX) == (1e-12, 1e-3)
+    for engine in (FastEngine, ReferenceEngine):
+        for bad in (1e-13, 1e-2):
+            with pytest.raises(ValueError, match=r"rtol = .* allowed \[1e-12, 0.001\]$"):
+                engine(rtol=bad)
+    with pytest.raises(SceneError, match=r"rtol = 0.01 is out of range; allowed "
+                                         r"\[1e-12, 0.001\]$"):
+        parse_scene({"solver": {"rtol": 1e-2}})
+    assert main(["simulate", "--rtol", "1e-13", "--t-end", "0.001"]) == 2
+    assert "allowed [1e-12, 0.001]" in capsys.readouterr().err
+    spec = importlib.util.spec_from_file_location("_gp_slave", ROOT / "fmu_src" / "GearPair.py")
+    pytest.importorskip("pythonfmu")
+    slave = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(slave)
+    rtol = next(v for v in slave.interface() if v["name"] == "rtol")
+    assert (rtol["min"], rtol["max"]) == (RTOL_MIN, RTOL_MAX)
+
+
+def test_dimensionless_units_are_not_printed_as_1():
+    with pytest.raises(ValueError) as exc:
+        GearParams(mu=2.0)
+    assert str(exc.value) == "mu = 2.0 is out of range; allowed [0, 1]"
+    with pytest.raises(ValueError) as exc:
+        GearParams(m1=-1.0)
+    assert str(exc.value).endswith("allowed (0, 100000] kg")

@@ -11,12 +11,14 @@ import json
 import shutil
 import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from gearpair import bench, cli
 
+ROOT = Path(__file__).resolve().parents[1]
 HAS_FMU = all(importlib.util.find_spec(m) is not None for m in ("pythonfmu", "fmpy"))
 PLAIN_METHODS = tuple(bench.PLAIN_PREFIX + m for m, _ in bench.QUICK.plain_rtols)
 ENGINE_METHODS = ("fast", "fast (step 0.001)", "fast dp5", *bench.SCIPY_METHODS,
@@ -257,3 +259,80 @@ def test_memory_peak_of_a_short_run():
     assert mem["samples"] == 101
     assert 0 < mem["baseline_rss_mb"] <= mem["peak_rss_mb"]
     assert mem["met"], mem
+
+
+# -- what bench --quick compiles, when, and that it says so --------------------------------
+class _Stop(Exception):
+    pass
+
+
+def test_bench_compiles_the_fmus_engine_beside_its_warm_up_and_before_any_timing(monkeypatch):
+    """The FMU's engine (compiled for a portable CPU, about 30 s once per engine change) is
+    compiled in a child beside the warm-up, and finished before the first timed section."""
+    import threading
+
+    import gearpair.shipped
+    from gearpair.bench import QUICK, measure
+
+    events, msgs, release = [], [], threading.Event()
+
+    def ship(package, import_name):
+        events.append(("ship", import_name, (Path(package) / "fast").is_dir()))
+        release.wait(30)  # finishes only once the warm-up ran: the two overlap
+        events.append("ship done")
+        return {"cpu_name": "x86-64-v2", "compiled": {"source": "compiled"}}
+
+    def warm_up(progress):
+        events.append("warm-up")
+        release.set()
+        return 0.0
+
+    def references(s, progress):
+        events.append("timed")
+        raise _Stop
+
+    monkeypatch.setattr(gearpair.shipped, "ship", ship)
+    monkeypatch.setattr(measure, "warm_up", warm_up)
+    monkeypatch.setattr(measure, "references", references)
+    with pytest.raises(_Stop):
+        measure.run(QUICK, msgs.append)
+    assert ("ship", "_gearpair_fmu", True) in events  # a copy of the package, the FMU's name
+    assert events.index("warm-up") < events.index("ship done") < events.index("timed")
+    said = "\n".join(msgs)
+    assert "compiling the FMU's engine in a child process" in said
+    assert "FMU's engine (for x86-64-v2 CPUs): compiled once" in said
+
+_NO_LOAD_AFTER_WARM_UP = r"""
+import json, sys
+from gearpair import jitcache
+from gearpair.bench import QUICK, cost_table, core_step_costs, engine_call_cost, warm_up
+warm_up()
+before = dict(jitcache.STATS)
+core_step_costs(QUICK, {r: [1e-6] for r in ("no_friction", "sliding", "stick_slip")})
+engine_call_cost(20)
+cost_table(QUICK)
+print(json.dumps([before, jitcache.STATS]))
+"""
+
+
+def test_bench_warm_up_loads_every_compiled_path_that_is_timed(tmp_path):
+    """After `warm_up` no timed section loads (or compiles) a compiled function: the per-step
+    ``advance`` path of the step costs and the ladder was loaded only inside timed runs."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("numba")
+    proc = subprocess.run([sys.executable, "-c", _NO_LOAD_AFTER_WARM_UP], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    before, after = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert after == before
+
+
+def test_bench_compiles_ahead_under_the_name_the_fmu_imports_its_package():
+    import re
+
+    from gearpair.bench.measure import FMU_BUNDLE
+
+    text = (ROOT / "fmu_src" / "GearPair.py").read_text()
+    assert re.search(r'^BUNDLE = "([^"]+)"', text, re.M).group(1) == FMU_BUNDLE

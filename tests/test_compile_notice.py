@@ -10,10 +10,13 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
 pytest.importorskip("numba")
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_first_cli_run_announces_the_compile(tmp_path):
@@ -42,3 +45,32 @@ def test_first_cli_run_announces_the_compile(tmp_path):
     assert notice, lines
     assert notice[0].startswith("gearpair: compiling the fast engine once")
     assert str(tmp_path / "numba") in notice[0]  # where later runs load it from
+
+
+# -- build_fmu.py says what it does before it compiles -------------------------------------
+def _build_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_build_fmu_progress", ROOT / "build_fmu.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_build_fmu_announces_the_engine_compile_before_it_starts(monkeypatch, tmp_path,
+                                                                capsys):
+    import gearpair.shipped
+
+    seen = []
+
+    def ship(package, import_name):  # stands in for the compile: what was said before it?
+        seen.append(capsys.readouterr().err)
+        return {"files": 42, "compiled": {"source": "compiled", "seconds": 100.0}}
+
+    monkeypatch.setattr(gearpair.shipped, "ship", ship)
+    _build_module()._add_compiled_engine(tmp_path, "gearpair")
+    before = seen[0]
+    assert before.startswith("build_fmu: compiling the fast engine that the FMU ships")
+    assert "about 30 s the first time" in before
+    after = capsys.readouterr().err
+    assert after.startswith("build_fmu: fast engine compiled in ") and "42 files" in after

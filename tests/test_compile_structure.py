@@ -1,4 +1,4 @@
-"""How the fast engine is compiled (issue 18: a first compile of at most 30 s).
+"""How the fast engine is compiled (a first compile of at most 30 s).
 
 Only the entry points are called from Python and cached; every other function is compiled
 to LLVM IR for its callers alone (`gearpair.jitlink`), so that LLVM optimizes and compiles

@@ -1,4 +1,4 @@
-"""Effects switched off or reduced give the analytic or reduced model they should (issue #5).
+"""Effects switched off or reduced give the analytic or reduced model they should.
 
 Backlash (back-flank contact), the torsional reduction, friction off, separation off and
 constant stiffness, each against an analytic limit or the full model it reduces; plus the

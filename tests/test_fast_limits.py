@@ -1,5 +1,5 @@
 """The fast engine stays a package a newcomer can change: no function in `gearpair.fast`
-takes more than 8 parameters or is longer than 80 lines (issue 18).
+takes more than 8 parameters or is longer than 80 lines.
 
 Parameters count as written (``self`` included, ``*args`` and ``**options`` one each); a
 function's length runs from its ``def`` line to its last line (docstring and comments

@@ -1,5 +1,5 @@
 """GearPair.fmu follows the FMI 2.0 co-simulation state machine and refuses invalid settings
-as the standard says (issue 16, item 2), through fmpy's low-level FMU2Slave.
+as the standard says, through fmpy's low-level FMU2Slave.
 
 Every refusal is checked for its status (fmi2Error), its log message (in the FMU's names,
 units and integer codes, delivered also with loggingOn = false), and for having changed

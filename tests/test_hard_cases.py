@@ -1,4 +1,4 @@
-"""Hard cases (issue #7): the model at the edges of its validity stays numerically stable.
+"""Hard cases: the model at the edges of its validity stays numerically stable.
 
 Each named case is a schedule of communication steps ``(t_end, torque, speed)``: the inputs
 are held over the step ending at ``t_end``, as an FMI 2.0 master holds them. Every case runs

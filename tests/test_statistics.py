@@ -1,4 +1,4 @@
-"""What the summaries, sweeps and the command line report (issue 17): statistics over the whole
+"""What the summaries, sweeps and the command line report: statistics over the whole
 trajectory, the fast engine as the default, back-flank contact as contact, points outside the
 model, standstill and user errors.
 

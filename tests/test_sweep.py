@@ -1,4 +1,4 @@
-"""Sweeps on dask (issue 6): Poincare analysis on synthetic signals, one sweep point against
+"""Sweeps on dask: Poincare analysis on synthetic signals, one sweep point against
 the engine's own counters and `results.simulate`, and parallel sweeps that report failed
 points instead of dropping them."""
 
@@ -161,7 +161,7 @@ def test_point_ratios_match_the_engine_counters_and_simulate():
 
 
 def test_point_never_raises():
-    """Values the validation refuses are invalid points, not failed runs (issue 17)."""
+    """Values the validation refuses are invalid points, not failed runs."""
     rec = run_point(3, "mu", -0.5, QUICK)
     assert rec["status"] == "invalid" and "mu" in rec["error"] and "allowed" in rec["error"]
     assert rec["index"] == 3 and math.isnan(rec["stick_ratio"]) and rec["poincare"] == []

@@ -1,5 +1,5 @@
 """The docs stand alone and their commands work: every command runs from the venv, the model's
-reconstruction is in the repository, snippets compile, the README's CSV example feeds every
+reconstruction is in the repository, snippets compile, the CSV input example feeds every
 input of the FMU, and the platforms the FMU ships for are named."""
 
 from __future__ import annotations
@@ -49,9 +49,9 @@ def test_sweep_doc_snippet_guards_its_entry_point():
     compile(snippet, "sweep.md", "exec")
 
 
-def test_readme_csv_example_gives_every_fmu_input():
-    readme = (ROOT / "README.md").read_text()
-    header = re.search(r"printf '([a-z_,]+)\\n", readme).group(1).split(",")
+def test_csv_input_example_gives_every_fmu_input():
+    doc = (ROOT / "docs" / "fmu.md").read_text()
+    header = re.search(r"printf '([a-z_,]+)\\n", doc).group(1).split(",")
     pytest.importorskip("pythonfmu")
     import importlib.util
 
@@ -74,3 +74,51 @@ def test_readme_says_what_is_tested_where():
                          if n.startswith("binaries/") and n.count("/") >= 2}
         for plat in platforms:
             assert plat in readme, plat
+
+
+def _doc_commands() -> list[tuple[str, str]]:
+    """(doc name, command) for every command line of the docs' shell blocks: continuation
+    lines joined, comments dropped, `a; b` split."""
+    out = []
+    for path in DOCS:
+        for block in _code_blocks(path.read_text()):
+            for line in block.replace("\\\n", " ").splitlines():
+                line = re.sub(r"\s#.*$", "", line).strip()
+                if line and not line.startswith("#"):
+                    out += [(path.name, c.strip()) for c in line.split("; ") if c.strip()]
+    return out
+
+
+def test_paths_the_docs_commands_name_exist():
+    """Every repository file a docs command names (a scene, a script, an example) exists."""
+    named = 0
+    for doc, cmd in _doc_commands():
+        for word in cmd.split():
+            if re.match(r"(examples|benchmarks|scripts|tests|docs|fmu_src)/\S+\.\w+$", word) \
+                    or word == "build_fmu.py":
+                named += 1
+                assert (ROOT / word).exists(), f"{doc}: {cmd}: no {word}"
+    assert named >= 10
+
+
+# `gearpair` subcommands that return in seconds: no engine run, no compile
+_CHEAP = re.compile(r"^\.venv/bin/gearpair (modes\b|--version$|\S+ -h$)")
+
+
+def test_the_docs_cheap_commands_run():
+    """The docs' `gearpair modes`, `--version` and `-h` commands run and exit 0 (the others
+    simulate, sweep or build; their front doors are tested in their own files)."""
+    import shlex
+    import subprocess
+    import sys
+
+    gearpair = Path(sys.executable).parent / "gearpair"
+    if not gearpair.exists():
+        pytest.skip("the gearpair command is not installed beside this interpreter")
+    cheap = [(doc, cmd) for doc, cmd in _doc_commands() if _CHEAP.match(cmd)]
+    assert len(cheap) >= 4, cheap
+    for doc, cmd in cheap:
+        argv = [str(gearpair), *shlex.split(cmd)[1:]]
+        proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, f"{doc}: {cmd}\n{proc.stderr[-2000:]}"
+        assert proc.stdout.strip(), f"{doc}: {cmd} printed nothing"

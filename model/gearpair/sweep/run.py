@@ -1,0 +1,161 @@
+"""Running the points: serially in this process or on dask.distributed (a local cluster or
+a running scheduler), with retries of failed points."""
+
+from __future__ import annotations
+
+import os
+import time
+from contextlib import contextmanager
+
+from ..params import RTOL_MIN
+from .point import _blank, _warm, run_point
+from .progress import Progress
+from .result import SweepResult
+from .settings import SweepSettings, sweepable
+
+
+def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
+              scheduler: str | None = None, workers: int | None = None, retries: int = 1,
+              progress: bool = True, stream=None) -> SweepResult:
+    """Run ``run_point`` for every value of ``name`` and gather the records.
+
+    Parameters
+    ----------
+    name : parameter to sweep (`sweepable`): ``speed_rpm`` (r/min), ``torque`` (N.m) or a
+        `GearParams` field (SI, e.g. ``mu``)
+    values : the values (any order; the output keeps it)
+    settings : held inputs, effects and durations
+    scheduler : None for a new local cluster of ``workers`` processes; ``"serial"`` to run in
+        this process (no dask); otherwise the address of a running dask.distributed scheduler
+        (e.g. ``tcp://10.0.0.5:8786``)
+    workers : local worker processes (default: the CPU count)
+    retries : how many times a failed point is run again (each with ``rtol / 10``)
+    progress : draw a progress bar on ``stream`` (stderr by default)
+    """
+    settings = settings or SweepSettings()
+    if name not in sweepable():
+        raise ValueError(f"cannot sweep {name!r}; choose one of " + ", ".join(sweepable()))
+    values = [float(v) for v in values]
+    if not values:
+        raise ValueError("no values to sweep")
+    if retries < 0:
+        raise ValueError(f"retries = {retries!r} must be >= 0")
+    bar = Progress(len(values), f"sweep {name}", stream, progress)
+    t0 = time.perf_counter()
+    if scheduler == "serial":
+        _warm()
+        startup = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        bar.start()
+        records, retried = [], 0
+        for i, v in enumerate(values):
+            rec = run_point(i, name, v, settings)
+            for a in range(2, retries + 2):
+                if rec["status"] != "failed":  # ok, or invalid: a tighter rtol cannot help
+                    break
+                bar.update(False, retrying=True)
+                retried += 1
+                rec = run_point(i, name, v, settings, _tighter(settings.rtol, a), a)
+            records.append(rec)
+            bar.update(rec["status"] != "failed")
+        return SweepResult(name, values, settings, records, time.perf_counter() - t1, startup,
+                           1, "serial", retried)
+    return _run_dask(name, values, settings, scheduler, workers, retries, bar, t0)
+
+
+def _tighter(rtol: float, attempt: int) -> float:
+    return max(rtol / 10.0 ** (attempt - 1), RTOL_MIN)
+
+
+def _local_cluster(workers: int | None):
+    import logging
+
+    try:
+        from dask.distributed import LocalCluster
+    except ImportError as exc:  # pragma: no cover - the extra is missing
+        raise ImportError("sweeps need dask.distributed: pip install 'gearpair[sweep]'") from exc
+    _warm()  # compile once here, before the workers start
+    n = int(workers or os.cpu_count() or 1)
+    # No dashboard; the scheduler's HTTP server (health checks) on a free port, so that a
+    # second cluster on the machine does not warn about port 8787.
+    return LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                        dashboard_address=None, silence_logs=logging.ERROR,
+                        scheduler_kwargs={"dashboard_address": ":0"})
+
+
+@contextmanager
+def local_cluster(workers: int | None = None):
+    """A local cluster of ``workers`` single-threaded processes for several sweeps; yields
+    its scheduler address (pass it as ``scheduler``). Call it under
+    ``if __name__ == "__main__":`` in scripts (worker processes are spawned)."""
+    cluster = _local_cluster(workers)
+    try:
+        yield cluster.scheduler_address
+    finally:
+        cluster.close()
+
+
+def _run_dask(name, values, settings, scheduler, workers, retries, bar, t0) -> SweepResult:
+    from dask.distributed import Client, as_completed
+
+    cluster = None
+    if scheduler:
+        client = Client(scheduler)
+        label = scheduler
+    else:
+        cluster = _local_cluster(workers)
+        client = Client(cluster)
+        label = "local"
+    try:
+        client.wait_for_workers(1, timeout=120)
+        info = client.scheduler_info(n_workers=-1) if _accepts_n_workers(client) \
+            else client.scheduler_info()
+        nthreads = sum(int(w.get("nthreads", 1)) for w in info["workers"].values()) or 1
+        # Load the compiled kernels on every worker before the clock starts.
+        client.run(_warm)
+        startup = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        bar.start()
+        futs, first = {}, []
+        for i, v in enumerate(values):
+            f = client.submit(run_point, i, name, v, settings, None, 1, pure=False)
+            futs[f.key] = (i, v, 1)
+            first.append(f)
+        ac = as_completed(first)
+        del first
+        records: dict[int, dict] = {}
+        retried = 0
+        for fut in ac:
+            i, v, attempt = futs.pop(fut.key)
+            try:
+                rec = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled task
+                rec = _blank(i, name, v, settings)
+                rec["attempts"] = attempt
+                rec["error"] = f"{type(exc).__name__}: {exc}"
+            fut.release()
+            if rec["status"] == "failed" and attempt <= retries:
+                retried += 1
+                bar.update(False, retrying=True)
+                g = client.submit(run_point, i, name, v, settings,
+                                  _tighter(settings.rtol, attempt + 1), attempt + 1, pure=False)
+                futs[g.key] = (i, v, attempt + 1)
+                ac.add(g)
+                continue
+            records[i] = rec
+            bar.update(rec["status"] != "failed")
+        elapsed = time.perf_counter() - t1
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    recs = [records[i] for i in range(len(values))]
+    return SweepResult(name, values, settings, recs, elapsed, startup, nthreads, label, retried)
+
+
+def _accepts_n_workers(client) -> bool:
+    import inspect
+
+    return "n_workers" in inspect.signature(client.scheduler_info).parameters
+
+

@@ -1,0 +1,138 @@
+"""What a sweep holds fixed and what it may vary: `SweepSettings`, the sweepable names and
+the model's validity."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+from ..effects import Effects, StiffnessSpec
+from ..params import RPM, GearParams
+
+# Inputs that are not GearParams fields, with their units.
+INPUTS = {"speed_rpm": "r/min", "torque": "N.m"}
+
+def sweepable() -> dict[str, str]:
+    """Names that can be swept, with their units: the inputs and every `GearParams` field."""
+    out = dict(INPUTS)
+    for f in fields(GearParams):
+        out[f.name] = f.metadata.get("unit", "")
+    return out
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    """Everything a sweep point needs besides the swept value (picklable, sent to workers).
+
+    Attributes
+    ----------
+    torque : N.m, driving torque when not swept
+    speed_rpm : r/min, speed of gear 1 when not swept
+    params : `GearParams` fields changed from Table 1, as ``((name, value), ...)``
+    friction, stick_tie, sliding, stiffness, separation : the `Effects` (``friction =
+        "nominal"`` is the traditional slip model, ``"stick_slip"`` the paper's model)
+    rtol : relative tolerance of the fast engine
+    steps_per_period : engine steps per mesh period (the DTE and mesh force statistics and
+        the spectrum use these samples; the ratios do not depend on them)
+    transient_periods, transient_time : mesh periods discarded, and at least this time (s)
+    kept_periods : mesh periods kept (made even, so half orders fall on a spectral bin)
+    max_time : s, soft cap of the simulated time per point (see module docstring)
+    min_periods : floor of the discarded and kept period counts under the cap
+    tol : tolerance of the Poincare periodicity test, relative to the mean |DTE|
+    max_period : longest period (in mesh periods) the test looks for
+    section_phase : phase of the Poincare section in the mesh period (0: a pair enters
+        contact); the sample nearest it is used. The default lies just before the leaving
+        pair exits (phase 0.75 for Table 1's gears), where the ringing of the 3-4 kHz mesh
+        modes excited at the entry has decayed most: a section inside the ringing turns small
+        changes of the speed into large jumps of the sample and makes a periodic response
+        look scattered in a bifurcation diagram.
+    """
+
+    torque: float = 3900.0
+    speed_rpm: float = 100.0
+    params: tuple[tuple[str, float], ...] = ()
+    friction: str = "stick_slip"
+    stick_tie: str = "exact"
+    sliding: str = "paper"
+    stiffness: str = "potential_energy"
+    separation: bool = True
+    rtol: float = 1e-7
+    steps_per_period: int = 8
+    transient_periods: int = 100
+    transient_time: float = 1.0
+    kept_periods: int = 100
+    max_time: float = 6.0
+    min_periods: int = 16
+    tol: float = 1e-3
+    max_period: int = 16
+    section_phase: float = 0.7
+
+    def __post_init__(self) -> None:
+        names = {f.name for f in fields(GearParams)}
+        for k, _ in self.params:
+            if k not in names:
+                raise ValueError(f"unknown gear parameter {k!r}; choose from "
+                                 + ", ".join(sorted(names)))
+        if self.steps_per_period < 2 or self.kept_periods < 4 or self.min_periods < 4:
+            raise ValueError("need steps_per_period >= 2, kept_periods >= 4, min_periods >= 4")
+        if not (self.max_time > 0 and self.transient_time >= 0 and self.tol > 0):
+            raise ValueError("need max_time > 0, transient_time >= 0 and tol > 0")
+
+    def replace(self, **changes: Any) -> SweepSettings:
+        return replace(self, **changes)
+
+    def inputs(self, name: str, value: float) -> tuple[GearParams, Effects, float, float]:
+        """Gear data, effects, torque (N.m) and speed (rad/s) of the point ``name = value``
+        (raises ``ValueError`` for an unknown name or an invalid value)."""
+        if name not in sweepable():
+            raise ValueError(f"cannot sweep {name!r}; choose one of " + ", ".join(sweepable()))
+        over = dict(self.params)
+        torque, rpm = self.torque, self.speed_rpm
+        if name == "torque":
+            torque = float(value)
+        elif name == "speed_rpm":
+            rpm = float(value)
+        else:
+            over[name] = value
+        params = GearParams(**over)
+        effects = Effects(stiffness=StiffnessSpec(kind=self.stiffness), separation=self.separation,
+                          friction=self.friction, sliding=self.sliding, stick_tie=self.stick_tie)
+        return params, effects, torque, rpm * RPM
+
+    def periods(self, mesh_period: float) -> tuple[int, int]:
+        """Discarded and kept mesh periods for a mesh period (s), with the cap applied."""
+        tm = mesh_period
+        n_t = max(self.transient_periods, math.ceil(self.transient_time / tm - 1e-9))
+        n_k = self.kept_periods
+        if (n_t + n_k) * tm > self.max_time:
+            n_k = min(n_k, max(self.min_periods, int(0.5 * self.max_time / tm)))
+            n_t = min(n_t, max(self.min_periods, int((self.max_time - n_k * tm) / tm)))
+        return n_t, n_k + n_k % 2
+
+
+def _boundary_phases(params: GearParams) -> list[float]:
+    """Phases (fractions of a mesh period, from the reset) of the engine's known segment
+    boundaries: a pair entering (0) or leaving contact, and a pair at the pitch point (a
+    boundary of the nominal law, avoided for every law so all models share one grid)."""
+    from ..geometry import Geometry
+
+    g = Geometry.from_params(params)
+    pb = g.base_pitch
+    return [0.0, math.fmod(g.path_length, pb) / pb, math.fmod(g.xi_pitch, pb) / pb]
+
+
+def outside_validity(effects: Effects, torque: float) -> str | None:
+    """Why a run lies outside the model's validity, or None.
+
+    Without backlash (the paper's model) a negative torque parts the teeth for good: nothing
+    holds gear 1, which spins up freely, and the DTE grows without bound (a point's DTE
+    statistics would be metres). `Effects.backlash` gives the back flanks that take it.
+    """
+    if torque < 0.0 and effects.backlash is None:
+        return (f"torque = {torque:g} N.m < 0 without backlash: the teeth part for good and "
+                "gear 1 spins up freely, outside the model (set a backlash for the back "
+                "flanks to take a negative torque)")
+    return None
+
+

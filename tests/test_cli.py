@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gearpair.cli import build_parser, main, plot_title
+from gearpair.cli import build_parser, main
+from gearpair.cli.simulate import plot_title
 from gearpair.scenes import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]

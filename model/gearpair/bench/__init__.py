@@ -37,17 +37,15 @@ Every section is a function returning plain dicts and lists (JSON-ready), so tes
 them with tiny settings; `run` calls them all and `report` prints the tables. Measuring and
 reporting live apart: `settings` (presets, targets), `runs` (timing an engine, errors),
 `work_precision`, `plain`, `fmu`, `chost`, `effect_cost`, `memory` and `measure` (the
-whole run) measure;
-`targets`, `report` and `plot` judge and show; `cli` is the command line. FMU runs happen
-in child processes that never import the working tree's ``gearpair`` (the FMU imports its own
-bundled copy, as in any host); timings there use fresh instances whose instantiation is not
-counted (it is reported apart).
+whole run) measure; `targets`, `report` and `plot` judge and show; `gearpair.cli.bench` is
+the command line. FMU runs happen in child processes that never import the working tree's
+``gearpair`` (the FMU imports its own bundled copy, as in any host); timings there use fresh
+instances whose instantiation is not counted (it is reported apart).
 """
 
 from __future__ import annotations
 
 from .chost import build_host, host_measurements, run_host
-from .cli import add_parser, main, settings_from
 from .effect_cost import LADDER_RUNS, cost_table
 from .fmu import build_fmus, fmu_measurements, fmu_start, fmu_startup
 from .measure import run, warm_up
@@ -110,10 +108,10 @@ __all__ = [
     "SCENES_DIR", "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FIRST_START_S",
     "TARGET_FMU_FACTOR", "TARGET_LADDER", "TARGET_MEMORY_MB", "TARGET_SLAVE_OWN_US",
     "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls", "accurate_rtol",
-    "add_parser", "BudgetExceeded", "build_fmus", "build_host", "clock", "core_step_costs",
+    "BudgetExceeded", "build_fmus", "build_host", "clock", "core_step_costs",
     "cost_table", "engine_call_cost", "engine_rows", "engine_run", "equal_accuracy",
     "fmu_measurements", "fmu_start", "fmu_startup", "host_measurements", "jsonable",
-    "load_plain", "machine_info", "main", "memory_peak", "plain_rows", "plot", "references",
+    "load_plain", "machine_info", "memory_peak", "plain_rows", "plot", "references",
     "regime_effects", "relative_error", "report", "run", "run_host", "Settings",
-    "settings_from", "table", "targets", "time_limit", "Timing", "warm_up",
+    "table", "targets", "time_limit", "Timing", "warm_up",
 ]

@@ -1,4 +1,5 @@
-"""``gearpair bench``: options, presets and the printed or JSON output."""
+"""``gearpair bench``: options, presets and the printed or JSON output (the measuring is
+`gearpair.bench`, imported when the command runs)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,7 @@ import sys
 import time
 from dataclasses import replace
 
-from .report import jsonable, report
-from .settings import DEFAULT, FULL, QUICK, Settings
+from .common import check_figure_format
 
 DESCRIPTION = ("Benchmark: work-precision of the integrators, cost of the FMU and cost of "
                "each effect.")
@@ -41,8 +41,11 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 
 
-def settings_from(args: argparse.Namespace) -> Settings:
-    """The `Settings` of the command line options (a preset, then the overrides)."""
+def settings_from(args: argparse.Namespace):
+    """The `gearpair.bench.Settings` of the command line options (a preset, then the
+    overrides)."""
+    from ..bench.settings import DEFAULT, FULL, QUICK
+
     s = QUICK if args.quick else FULL if args.full else DEFAULT
     if args.memory:
         s = replace(s, memory=True)
@@ -57,17 +60,10 @@ def settings_from(args: argparse.Namespace) -> Settings:
     return s
 
 
-def main(argv: list[str] | argparse.Namespace | None = None) -> int:
+def run(args: argparse.Namespace) -> int:
     """``gearpair bench``: run, print the tables (or JSON), optionally draw the diagram."""
-    if isinstance(argv, argparse.Namespace):
-        args = argv
-    else:
-        ap = argparse.ArgumentParser(prog="gearpair")
-        add_parser(ap.add_subparsers(dest="cmd", required=True))
-        args = ap.parse_args(["bench", *(sys.argv[1:] if argv is None else argv)])
     s = settings_from(args)
     if args.plot:  # before minutes of measuring, not after them
-        from ..cli import check_figure_format
         from ..writable import check_writable
 
         check_writable("--plot", args.plot)
@@ -78,11 +74,12 @@ def main(argv: list[str] | argparse.Namespace | None = None) -> int:
         print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
 
     from .. import bench  # the package's `run`, which tests may replace
+    from ..bench.report import jsonable, report
 
     result = bench.run(s, progress)
     if args.plot:
         try:
-            from .plot import plot
+            from ..bench.plot import plot
 
             plot(result, args.plot)
         except ImportError as exc:
@@ -96,4 +93,3 @@ def main(argv: list[str] | argparse.Namespace | None = None) -> int:
         if args.plot:
             print(f"\nwork-precision diagram written to {args.plot}")
     return 0
-

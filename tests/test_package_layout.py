@@ -1,0 +1,104 @@
+"""The package's shape: no import circle between its modules, every command-line module imports
+on its own, and the command line's parser loads no subcommand's machinery."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "model" / "gearpair"
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """The package's modules that ``name`` imports anywhere in its text (also inside
+    functions: a lazy import closes a circle as surely once both sides have run)."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join(base + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            for a in node.names:  # `from . import x`: x may be a module or a name in base
+                out.add(f"{base}.{a.name}" if f"{base}.{a.name}" in MODULES else base)
+    return {m for m in out if m in MODULES and m != name}
+
+
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                found.append(sorted(comp))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_the_import_graph_has_no_circle():
+    graph = {name: _imports(name, path) for name, path in MODULES.items()}
+    assert "gearpair.cli.bench" in graph["gearpair.cli"]  # the graph sees relative imports
+    assert _circles(graph) == []
+
+
+def test_a_circle_is_found():
+    """The check above can fail: the former bench -> bench.cli -> cli -> bench."""
+    graph = {"gearpair.bench": {"gearpair.bench.cli"}, "gearpair.bench.cli": {"gearpair.cli"},
+             "gearpair.cli": {"gearpair.bench", "gearpair.params"}, "gearpair.params": set()}
+    assert _circles(graph) == [["gearpair.bench", "gearpair.bench.cli", "gearpair.cli"]]
+
+
+CLI_MODULES = sorted(m for m in MODULES if m.startswith("gearpair.cli") and
+                     not m.endswith("__main__"))
+
+
+@pytest.mark.parametrize("module", CLI_MODULES)
+def test_each_command_line_module_imports_alone(module):
+    """In a fresh interpreter, so no earlier import hides an order dependence."""
+    subprocess.run([sys.executable, "-c", f"import {module}"], check=True, timeout=120)
+
+
+def test_building_the_parser_loads_no_benchmark_or_engine():
+    code = ("import sys; from gearpair.cli import build_parser; build_parser(); "
+            "print(sorted(m for m in sys.modules if m.startswith(('gearpair.bench', "
+            "'gearpair.fast', 'gearpair.reference', 'numba', 'dask'))))")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                         text=True, timeout=120).stdout
+    assert out.strip() == "[]"

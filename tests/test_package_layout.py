@@ -23,10 +23,15 @@ MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
 
 def _imports(name: str, path: Path) -> set[str]:
     """The package's modules that ``name`` imports anywhere in its text (also inside
-    functions: a lazy import closes a circle as surely once both sides have run)."""
+    functions: a lazy import closes a circle as surely once both sides have run), except
+    under ``if TYPE_CHECKING:`` (annotations only)."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    tree = ast.parse(path.read_text(), str(path))
+    for node in ast.walk(tree):  # `if TYPE_CHECKING:` imports never run
+        if isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING":
+            node.body = []
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             out.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):

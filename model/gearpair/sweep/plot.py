@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..params import GearParams
-from .result import SweepResult
 from .settings import SweepSettings, sweepable
+
+if TYPE_CHECKING:  # an annotation only: result.py imports this module to draw
+    from .result import SweepResult
 
 
 # -- output -----------------------------------------------------------------------------------

@@ -484,7 +484,7 @@ def test_the_default_fmu_is_rebuilt_when_any_file_it_bundles_is_newer(tmp_path, 
     or in the FMU's C layer rebuilds dist/GearPair.fmu, as one in the package's top level."""
     import os
 
-    from gearpair import scenes
+    from gearpair.scenes import fmu as scenes
 
     builds = []
     (tmp_path / "build_fmu.py").write_text(

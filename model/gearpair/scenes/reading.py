@@ -1,9 +1,4 @@
-"""Scene files: one TOML file says what to simulate, and only that.
-
-A scene holds the gear data, the effects the run calls for, the operating inputs (torque and
-speed as constants, ramps, steps or a CSV time series), the solver settings and the outputs.
-`load_scene` reads and validates it into frozen objects; `Scene.run` simulates it with the
-fast or reference engine or through the FMU. ``docs/scenes.md`` is the format reference.
+"""Reading a scene file: TOML into a validated `Scene`.
 
 Everything inside is SI. Keys whose unit is not SI say so in their name (``speed_rpm``,
 ``pressure_angle_deg``). Every error names the key (``[gear] m1 = -3 is out of range; ...``),
@@ -14,32 +9,33 @@ from __future__ import annotations
 
 import csv
 import math
-import re
 import sys
-import time as _time
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from .effects import Effects, StiffnessSpec
-from .equations import check_friction_coefficients
-from .geometry import BORE_RATIO_MAX
-from .inputs import Constant, Ramp, Schedule, Series, Step
-from .params import RPM, RTOL_MAX, RTOL_MIN, GearParams, OperatingPoint, check_range, unit_name
-from .results import UNITS, Trajectory, simulate
+from ..effects import Effects, StiffnessSpec
+from ..equations import check_friction_coefficients
+from ..geometry import BORE_RATIO_MAX
+from ..inputs import Constant, Ramp, Schedule, Series, Step
+from ..params import RPM, RTOL_MAX, RTOL_MIN, GearParams, OperatingPoint, check_range, unit_name
+from .errors import SceneError, SceneWarning
+from .types import (
+    ENGINES,
+    OUTPUT_NAMES,
+    STEP_MAX,
+    STEP_MIN,
+    T_END_MAX,
+    Inputs,
+    OutputSpec,
+    Scene,
+    Solver,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # Python 3.10: the same parser as the backport
     import tomli as tomllib
-
-ENGINES = ("fast", "reference", "fmu")
-OUTPUT_NAMES = tuple(n for n in UNITS if n != "time")
-T_END_MAX = 3600.0  # s; longer runs belong in a sweep, not one scene
-STEP_MIN, STEP_MAX = 1e-7, 1.0  # s, communication step and output interval
-_ROOT = Path(__file__).resolve().parents[2]  # the repository (build_fmu.py, dist/)
 
 # Inputs: scene key -> (signal, unit shown in messages, factor to SI).
 _SIGNALS = {"torque": ("torque", "N.m", 1.0), "speed": ("speed", "rad/s", 1.0),
@@ -47,325 +43,6 @@ _SIGNALS = {"torque": ("torque", "N.m", 1.0), "speed": ("speed", "rad/s", 1.0),
 _OP = {f.name: f.metadata for f in fields(OperatingPoint)}  # input ranges (SI)
 
 
-class SceneWarning(UserWarning):
-    """Something in a scene that is allowed but most likely not meant (e.g. an input-CSV
-    column that no input uses: a misspelt name leaves that input at its default)."""
-
-
-class SceneError(ValueError):
-    """A scene file is invalid; the message names the file and the key."""
-
-
-# -- scene sections --------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Inputs:
-    """Operating inputs as functions of time: torque on gear 1 (N.m), speed of gear 1 (rad/s).
-
-    The engine samples them at the start of each communication step and holds them over it
-    (an FMI master's zero-order hold).
-    """
-
-    torque: Schedule = Constant(OperatingPoint().torque)
-    speed: Schedule = Constant(OperatingPoint().speed)
-
-
-@dataclass(frozen=True)
-class Solver:
-    """How to integrate.
-
-    Attributes
-    ----------
-    engine : {"fast", "reference", "fmu"}
-    rtol : relative tolerance of the integrator
-    step : communication step (s): inputs are sampled and held over it; ``None`` means the
-        output interval
-    static_start : start from static equilibrium under the initial torque
-    """
-
-    engine: str = "fast"
-    rtol: float = 1e-8
-    step: float | None = None
-    static_start: bool = True
-
-
-@dataclass(frozen=True)
-class OutputSpec:
-    """What to record.
-
-    Attributes
-    ----------
-    names : columns written to CSV (``time`` always comes first)
-    interval : sampling interval of the trajectory (s), a whole multiple of the step
-    t_from : start of the steady window for ratios and statistics (s); ``None``: t_end / 2
-    """
-
-    names: tuple[str, ...] = OUTPUT_NAMES
-    interval: float = 1e-4
-    t_from: float | None = None
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A validated scene: everything a run needs (SI).
-
-    Attributes
-    ----------
-    name : scene name (file stem unless ``name`` is given)
-    params, effects : gear data and the effects the run includes
-    inputs, solver, outputs : see `Inputs`, `Solver`, `OutputSpec`
-    t_end : simulated time (s), from 0
-    description : free text
-    path : the scene file, if it came from one
-    """
-
-    name: str
-    params: GearParams = field(default_factory=GearParams)
-    effects: Effects = field(default_factory=Effects)
-    inputs: Inputs = field(default_factory=Inputs)
-    solver: Solver = field(default_factory=Solver)
-    outputs: OutputSpec = field(default_factory=OutputSpec)
-    t_end: float = 0.2
-    description: str = ""
-    path: Path | None = None
-
-    @property
-    def step(self) -> float:
-        """Communication step (s)."""
-        return self.outputs.interval if self.solver.step is None else self.solver.step
-
-    @property
-    def every(self) -> int:
-        """Communication steps per output sample."""
-        return max(1, int(round(self.outputs.interval / self.step)))
-
-    @property
-    def t_from(self) -> float:
-        """Start of the steady window (s)."""
-        t = self.outputs.t_from
-        return 0.5 * self.t_end if t is None or t >= self.t_end else t
-
-    def with_t_end(self, t_end: float) -> Scene:
-        """The same scene over ``[0, t_end]`` (e.g. a short check). A steady window that
-        would start after the new end becomes its second half."""
-        if not (math.isfinite(t_end) and 0.0 < t_end <= T_END_MAX):
-            raise SceneError(f"t_end = {t_end!r} is out of range; allowed (0, {T_END_MAX:g}] s")
-        out = self.outputs
-        if out.t_from is not None and out.t_from >= t_end:
-            out = replace(out, t_from=None)
-        return replace(self, t_end=float(t_end), outputs=out)
-
-    def run(self, engine: str | None = None, *, fmu_path: str | Path | None = None) -> Trajectory:
-        """Simulate the scene and return the trajectory sampled at the output interval.
-
-        Parameters
-        ----------
-        engine : "fast", "reference" or "fmu"; default the scene's ``[solver] engine``
-        fmu_path : the FMU for ``engine="fmu"``; default ``dist/GearPair.fmu`` of the
-            repository, built (or rebuilt when older than its sources) with build_fmu.py
-        """
-        engine = self.solver.engine if engine is None else engine
-        if engine not in ENGINES:
-            raise SceneError(f"engine = {engine!r} is not allowed; choose one of "
-                             + ", ".join(ENGINES))
-        if self.t_end < self.step * (1 - 1e-9):
-            raise SceneError(f"t_end = {self.t_end:g} s is shorter than one step "
-                             f"({self.step:g} s)")
-        if engine == "fmu":
-            traj = run_fmu(self, fmu_path)
-        else:
-            traj = simulate(self.params, self.effects, t_end=self.t_end,
-                            torque=self.inputs.torque, speed=self.inputs.speed, dt=self.step,
-                            engine=engine, static=self.solver.static_start,
-                            rtol=self.solver.rtol)
-        out = traj.decimate(self.every)
-        out.meta.update(scene=self.name, engine=engine, t_end=self.t_end)
-        return out
-
-
-# -- the FMU as an engine ------------------------------------------------------------------------
-def fmu_sources() -> list[Path]:
-    """The files ``dist/GearPair.fmu`` is built from: build_fmu.py, the slave and its C
-    layer (``fmu_src``), and the package it bundles, sub-packages (the fast engine) included."""
-    return [_ROOT / "build_fmu.py",
-            *(p for p in sorted((_ROOT / "fmu_src").rglob("*")) if p.suffix in (".py", ".c", ".h")),
-            *sorted((_ROOT / "model" / "gearpair").rglob("*.py"))]
-
-
-def default_fmu(rebuild_stale: bool = True) -> Path:
-    """``dist/GearPair.fmu`` of the repository, built with build_fmu.py if missing (or older
-    than the files it is built from, so a run never uses stale physics)."""
-    script = _ROOT / "build_fmu.py"
-    fmu = _ROOT / "dist" / "GearPair.fmu"
-    sources = fmu_sources()
-    if not script.is_file():
-        if fmu.is_file():
-            return fmu
-        raise SceneError(f"no FMU at {fmu} and no build_fmu.py to build it; pass its path")
-    stale = fmu.is_file() and rebuild_stale and \
-        fmu.stat().st_mtime < max(p.stat().st_mtime for p in sources if p.is_file())
-    if not fmu.is_file() or stale:
-        import importlib.util
-
-        spec = importlib.util.spec_from_file_location("_gearpair_build_fmu", script)
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        print(f"gearpair: {'rebuilding stale' if stale else 'building'} {fmu}", file=sys.stderr)
-        mod.build(fmu.parent)
-    return fmu
-
-
-def _codes(description: str) -> dict[str, int]:
-    """Integer codes of an FMU choice parameter from its description ("...: 0 off, 1 nominal")."""
-    tail = description.rsplit(":", 1)[-1]
-    return {name: int(i) for i, name in re.findall(r"(\d+) ([A-Za-z_]+)", tail)}
-
-
-def fmu_start_values(scene: Scene, variables: dict[str, Any]) -> dict[str, Any]:
-    """Start values that set the FMU up as the scene (``variables``: name -> fmpy variable).
-
-    Raises `SceneError` when the scene calls for something the FMU cannot express.
-    """
-    fx = scene.effects
-
-    def refuse(what: str) -> SceneError:
-        return SceneError(f"the FMU cannot express {what}; run this scene with --engine fast "
-                          "or reference")
-
-    def code(param: str, value: str, what: str) -> int:
-        v = variables.get(param)
-        codes = _codes(v.description or "") if v is not None else {}
-        if value not in codes:
-            raise refuse(f"{what} = {value!r} (no such choice of its parameter {param!r})")
-        return codes[value]
-
-    if not scene.solver.static_start:
-        raise refuse("[solver] static_start = false (it always starts from static equilibrium)")
-    start: dict[str, Any] = {f.name: getattr(scene.params, f.name) for f in fields(GearParams)}
-    if fx.stiffness.kind == "table":
-        raise refuse("[effects.stiffness] kind = \"table\"")
-    start["stiffness_model"] = code("stiffness_model", fx.stiffness.kind, "[effects] stiffness")
-    start["friction_law"] = code("friction_law", fx.friction, "[effects] friction")
-    start["sliding"] = code("sliding", fx.sliding, "[effects] sliding")
-    start["stick_tie"] = code("stick_tie", fx.stick_tie, "[effects] stick_tie")
-    start["separation"] = bool(fx.separation)
-    start["v_eps"] = float(fx.v_eps)
-    start["rtol"] = float(scene.solver.rtol)
-    if "engine" in variables:
-        start["engine"] = code("engine", "fast", "the engine")
-    if fx.backlash is not None:
-        if "backlash" not in variables:
-            raise refuse("[effects] backlash (no parameter 'backlash')")
-        start["backlash"] = float(fx.backlash)
-    # 0 is the FMU's "not given" (mu_static = mu, no Stribeck decay)
-    for name in ("mu_static", "stribeck_velocity"):
-        value = getattr(fx, name)
-        if value is not None:
-            if name not in variables:
-                raise refuse(f"[effects] {name} (no parameter {name!r})")
-            start[name] = float(value)
-    if fx.dof != "full" or "dof" in variables:
-        if "dof" not in variables:
-            raise refuse(f"[effects] dof = {fx.dof!r} (no parameter 'dof')")
-        start["dof"] = code("dof", fx.dof, "[effects] dof")
-    missing = sorted(k for k in start if k not in variables)
-    if missing:
-        raise refuse(f"the parameter(s) {', '.join(missing)} (not in this FMU)")
-    return start
-
-
-def run_fmu(scene: Scene, fmu_path: str | Path | None = None) -> Trajectory:
-    """Run the scene through the GearPair FMU with fmpy at the scene's communication step.
-
-    The FMU is driven as an FMI 2.0 co-simulation master drives it (fmpy's ``FMU2Slave``):
-    inputs set at each communication point and held over the step (the values `simulate`
-    holds), then ``doStep``. The trajectory's ``meta`` has ``startup_s`` (extracting and
-    instantiating the FMU and its initialization, where it builds the engine and loads the
-    compiled code) apart from ``wall_time_s`` (the steps and the reading of the outputs).
-    """
-    try:
-        import fmpy
-        from fmpy.fmi2 import FMU2Slave
-    except ImportError:
-        raise SceneError("--engine fmu needs fmpy: pip install 'gearpair[fmu]'") from None
-    import shutil
-
-    path = Path(fmu_path) if fmu_path is not None else default_fmu()
-    wall0 = _time.perf_counter()
-    md = fmpy.read_model_description(str(path))
-    variables = {v.name: v for v in md.modelVariables}
-    start = fmu_start_values(scene, variables)
-    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
-    reals = [n for n in outputs if variables[n].type == "Real"]
-    others = [n for n in outputs if variables[n].type != "Real"]
-    h, t_end = scene.step, scene.t_end
-    n = int(math.ceil(t_end / h - 1e-9))
-    grid = np.minimum(h * np.arange(n + 1), t_end)  # the communication points
-    grid[-1] = t_end
-    fT, fW = scene.inputs.torque, scene.inputs.speed
-    # a scene drives no load shaft: load_speed stays 0 with load_speed_input false
-    vr_in = [variables[k].valueReference for k in ("torque", "speed", "load_speed")
-             if k in variables]
-    vr_real = [variables[k].valueReference for k in reals]
-    vr_other = [variables[k].valueReference for k in others]
-    rec = np.zeros((n + 1, len(outputs)))
-    unzip = fmpy.extract(str(path))
-    fmu = None
-    t = 0.0
-    try:
-        fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, instanceName="gearpair",
-                        modelIdentifier=md.coSimulation.modelIdentifier)
-        fmu.instantiate()
-        fmu.setupExperiment(startTime=0.0)
-        for name, value in start.items():
-            v = variables[name]
-            if v.type == "Real":
-                fmu.setReal([v.valueReference], [float(value)])
-            elif v.type == "Boolean":
-                fmu.setBoolean([v.valueReference], [bool(value)])
-            else:
-                fmu.setInteger([v.valueReference], [int(value)])
-
-        def inputs(t):
-            fmu.setReal(vr_in, [float(fT(t)), float(fW(t)), 0.0][:len(vr_in)])
-
-        def read(i):
-            rec[i, :len(reals)] = fmu.getReal(vr_real)
-            if vr_other:
-                rec[i, len(reals):] = fmu.getInteger(vr_other)
-
-        fmu.enterInitializationMode()
-        inputs(0.0)
-        fmu.exitInitializationMode()
-        startup = _time.perf_counter() - wall0
-        wall0 = _time.perf_counter()
-        read(0)
-        for i in range(1, n + 1):
-            t = float(grid[i - 1])
-            inputs(t)
-            fmu.doStep(currentCommunicationPoint=t, communicationStepSize=float(grid[i]) - t)
-            read(i)
-        wall = _time.perf_counter() - wall0
-        fmu.terminate()
-    except Exception as exc:  # fmpy reports a refused call as a generic exception
-        raise RuntimeError(f"FMU run of scene {scene.name!r} failed at t = {t:g} s: {exc} "
-                           "(rerun with fmpy's debug_logging for the FMU's message)") from exc
-    finally:
-        if fmu is not None:
-            fmu.freeInstance()
-        shutil.rmtree(unzip, ignore_errors=True)
-    data: dict[str, np.ndarray] = {"time": grid.astype(float)}
-    for k, name in enumerate(reals + others):
-        data[name] = rec[:, k]
-    # As `simulate` records: row i holds the inputs held over the interval ending at t[i].
-    held = np.concatenate([grid[:1], grid[:-1]])
-    data["torque"] = np.array([fT(x) for x in held])
-    data["speed"] = np.array([fW(x) for x in held])
-    data["load_speed"] = data["speed"] * scene.params.ratio  # nominal, as in `simulate`
-    return Trajectory(data, {"engine": "fmu", "wall_time_s": wall, "startup_s": startup,
-                             "fmu": str(path)})
-
-
-# -- reading and validation ----------------------------------------------------------------------
 def _show(v: Any) -> str:
     """A value as it would be written in TOML."""
     if isinstance(v, bool):
@@ -494,7 +171,7 @@ def _derivation(d: dict) -> dict[str, Any]:
 def _derive(params: GearParams, derive: dict[str, Any], effects: Effects) -> GearParams:
     if not derive:
         return params
-    from .modal import derive_params
+    from ..modal import derive_params
 
     try:
         return derive_params(params, effects=effects, **derive)
@@ -553,7 +230,7 @@ def _stiffness(d: Any, base: Path, params: GearParams) -> StiffnessSpec:
             raise SceneError('[effects.stiffness] kind = "table" needs file = "table.csv" '
                              "(columns position_m or angle_rad, stiffness_n_per_m)")
         path = _resolve(base, where, "file", d["file"])
-        from .stiffness import read_table
+        from ..stiffness import read_table
 
         try:
             table = read_table(path, params)

@@ -1,0 +1,205 @@
+"""The GearPair FMU as an engine: the start values that set it up as a scene, and a run
+through fmpy as an FMI 2.0 co-simulation master drives it."""
+
+from __future__ import annotations
+
+import math
+import re
+import sys
+import time as _time
+from dataclasses import fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..params import GearParams
+from ..results import Trajectory
+from .errors import SceneError
+
+if TYPE_CHECKING:
+    from .types import Scene
+
+_ROOT = Path(__file__).resolve().parents[3]  # the repository (build_fmu.py, dist/)
+
+
+def fmu_sources() -> list[Path]:
+    """The files ``dist/GearPair.fmu`` is built from: build_fmu.py, the slave and its C
+    layer (``fmu_src``), and the package it bundles, sub-packages (the fast engine) included."""
+    return [_ROOT / "build_fmu.py",
+            *(p for p in sorted((_ROOT / "fmu_src").rglob("*")) if p.suffix in (".py", ".c", ".h")),
+            *sorted((_ROOT / "model" / "gearpair").rglob("*.py"))]
+
+
+def default_fmu(rebuild_stale: bool = True) -> Path:
+    """``dist/GearPair.fmu`` of the repository, built with build_fmu.py if missing (or older
+    than the files it is built from, so a run never uses stale physics)."""
+    script = _ROOT / "build_fmu.py"
+    fmu = _ROOT / "dist" / "GearPair.fmu"
+    sources = fmu_sources()
+    if not script.is_file():
+        if fmu.is_file():
+            return fmu
+        raise SceneError(f"no FMU at {fmu} and no build_fmu.py to build it; pass its path")
+    stale = fmu.is_file() and rebuild_stale and \
+        fmu.stat().st_mtime < max(p.stat().st_mtime for p in sources if p.is_file())
+    if not fmu.is_file() or stale:
+        import importlib.util
+
+        spec = importlib.util.spec_from_file_location("_gearpair_build_fmu", script)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        print(f"gearpair: {'rebuilding stale' if stale else 'building'} {fmu}", file=sys.stderr)
+        mod.build(fmu.parent)
+    return fmu
+
+
+def _codes(description: str) -> dict[str, int]:
+    """Integer codes of an FMU choice parameter from its description ("...: 0 off, 1 nominal")."""
+    tail = description.rsplit(":", 1)[-1]
+    return {name: int(i) for i, name in re.findall(r"(\d+) ([A-Za-z_]+)", tail)}
+
+
+def fmu_start_values(scene: Scene, variables: dict[str, Any]) -> dict[str, Any]:
+    """Start values that set the FMU up as the scene (``variables``: name -> fmpy variable).
+
+    Raises `SceneError` when the scene calls for something the FMU cannot express.
+    """
+    fx = scene.effects
+
+    def refuse(what: str) -> SceneError:
+        return SceneError(f"the FMU cannot express {what}; run this scene with --engine fast "
+                          "or reference")
+
+    def code(param: str, value: str, what: str) -> int:
+        v = variables.get(param)
+        codes = _codes(v.description or "") if v is not None else {}
+        if value not in codes:
+            raise refuse(f"{what} = {value!r} (no such choice of its parameter {param!r})")
+        return codes[value]
+
+    if not scene.solver.static_start:
+        raise refuse("[solver] static_start = false (it always starts from static equilibrium)")
+    start: dict[str, Any] = {f.name: getattr(scene.params, f.name) for f in fields(GearParams)}
+    if fx.stiffness.kind == "table":
+        raise refuse("[effects.stiffness] kind = \"table\"")
+    start["stiffness_model"] = code("stiffness_model", fx.stiffness.kind, "[effects] stiffness")
+    start["friction_law"] = code("friction_law", fx.friction, "[effects] friction")
+    start["sliding"] = code("sliding", fx.sliding, "[effects] sliding")
+    start["stick_tie"] = code("stick_tie", fx.stick_tie, "[effects] stick_tie")
+    start["separation"] = bool(fx.separation)
+    start["v_eps"] = float(fx.v_eps)
+    start["rtol"] = float(scene.solver.rtol)
+    if "engine" in variables:
+        start["engine"] = code("engine", "fast", "the engine")
+    if fx.backlash is not None:
+        if "backlash" not in variables:
+            raise refuse("[effects] backlash (no parameter 'backlash')")
+        start["backlash"] = float(fx.backlash)
+    # 0 is the FMU's "not given" (mu_static = mu, no Stribeck decay)
+    for name in ("mu_static", "stribeck_velocity"):
+        value = getattr(fx, name)
+        if value is not None:
+            if name not in variables:
+                raise refuse(f"[effects] {name} (no parameter {name!r})")
+            start[name] = float(value)
+    if fx.dof != "full" or "dof" in variables:
+        if "dof" not in variables:
+            raise refuse(f"[effects] dof = {fx.dof!r} (no parameter 'dof')")
+        start["dof"] = code("dof", fx.dof, "[effects] dof")
+    missing = sorted(k for k in start if k not in variables)
+    if missing:
+        raise refuse(f"the parameter(s) {', '.join(missing)} (not in this FMU)")
+    return start
+
+
+def run_fmu(scene: Scene, fmu_path: str | Path | None = None) -> Trajectory:
+    """Run the scene through the GearPair FMU with fmpy at the scene's communication step.
+
+    The FMU is driven as an FMI 2.0 co-simulation master drives it (fmpy's ``FMU2Slave``):
+    inputs set at each communication point and held over the step (the values `simulate`
+    holds), then ``doStep``. The trajectory's ``meta`` has ``startup_s`` (extracting and
+    instantiating the FMU and its initialization, where it builds the engine and loads the
+    compiled code) apart from ``wall_time_s`` (the steps and the reading of the outputs).
+    """
+    try:
+        import fmpy
+        from fmpy.fmi2 import FMU2Slave
+    except ImportError:
+        raise SceneError("--engine fmu needs fmpy: pip install 'gearpair[fmu]'") from None
+    import shutil
+
+    path = Path(fmu_path) if fmu_path is not None else default_fmu()
+    wall0 = _time.perf_counter()
+    md = fmpy.read_model_description(str(path))
+    variables = {v.name: v for v in md.modelVariables}
+    start = fmu_start_values(scene, variables)
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    reals = [n for n in outputs if variables[n].type == "Real"]
+    others = [n for n in outputs if variables[n].type != "Real"]
+    h, t_end = scene.step, scene.t_end
+    n = int(math.ceil(t_end / h - 1e-9))
+    grid = np.minimum(h * np.arange(n + 1), t_end)  # the communication points
+    grid[-1] = t_end
+    fT, fW = scene.inputs.torque, scene.inputs.speed
+    # a scene drives no load shaft: load_speed stays 0 with load_speed_input false
+    vr_in = [variables[k].valueReference for k in ("torque", "speed", "load_speed")
+             if k in variables]
+    vr_real = [variables[k].valueReference for k in reals]
+    vr_other = [variables[k].valueReference for k in others]
+    rec = np.zeros((n + 1, len(outputs)))
+    unzip = fmpy.extract(str(path))
+    fmu = None
+    t = 0.0
+    try:
+        fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, instanceName="gearpair",
+                        modelIdentifier=md.coSimulation.modelIdentifier)
+        fmu.instantiate()
+        fmu.setupExperiment(startTime=0.0)
+        for name, value in start.items():
+            v = variables[name]
+            if v.type == "Real":
+                fmu.setReal([v.valueReference], [float(value)])
+            elif v.type == "Boolean":
+                fmu.setBoolean([v.valueReference], [bool(value)])
+            else:
+                fmu.setInteger([v.valueReference], [int(value)])
+
+        def inputs(t):
+            fmu.setReal(vr_in, [float(fT(t)), float(fW(t)), 0.0][:len(vr_in)])
+
+        def read(i):
+            rec[i, :len(reals)] = fmu.getReal(vr_real)
+            if vr_other:
+                rec[i, len(reals):] = fmu.getInteger(vr_other)
+
+        fmu.enterInitializationMode()
+        inputs(0.0)
+        fmu.exitInitializationMode()
+        startup = _time.perf_counter() - wall0
+        wall0 = _time.perf_counter()
+        read(0)
+        for i in range(1, n + 1):
+            t = float(grid[i - 1])
+            inputs(t)
+            fmu.doStep(currentCommunicationPoint=t, communicationStepSize=float(grid[i]) - t)
+            read(i)
+        wall = _time.perf_counter() - wall0
+        fmu.terminate()
+    except Exception as exc:  # fmpy reports a refused call as a generic exception
+        raise RuntimeError(f"FMU run of scene {scene.name!r} failed at t = {t:g} s: {exc} "
+                           "(rerun with fmpy's debug_logging for the FMU's message)") from exc
+    finally:
+        if fmu is not None:
+            fmu.freeInstance()
+        shutil.rmtree(unzip, ignore_errors=True)
+    data: dict[str, np.ndarray] = {"time": grid.astype(float)}
+    for k, name in enumerate(reals + others):
+        data[name] = rec[:, k]
+    # As `simulate` records: row i holds the inputs held over the interval ending at t[i].
+    held = np.concatenate([grid[:1], grid[:-1]])
+    data["torque"] = np.array([fT(x) for x in held])
+    data["speed"] = np.array([fW(x) for x in held])
+    data["load_speed"] = data["speed"] * scene.params.ratio  # nominal, as in `simulate`
+    return Trajectory(data, {"engine": "fmu", "wall_time_s": wall, "startup_s": startup,
+                             "fmu": str(path)})

@@ -33,9 +33,19 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent
 SCRIPT = ROOT / "fmu_src" / "GearPair.py"
 PACKAGE = ROOT / "model" / "gearpair"
-REQUIREMENTS = "numpy>=1.24\nscipy>=1.10\nnumba>=0.59\n"
 SHIM_SRC = ROOT / "fmu_src" / "c"
 INNER_SUFFIX = "_pythonfmu.so"  # pythonfmu's library beside the C layer: <model><suffix>
+
+
+def requirements() -> str:
+    """The FMU's ``resources/requirements.txt``: pyproject.toml's run-time dependencies, with
+    their bounds (the versions the bundled package was tested with)."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    deps = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"]
+    return "".join(d + "\n" for d in deps)
 
 # Units: name -> SI base-unit exponents (FMI 2.0 BaseUnit attributes).
 UNITS: dict[str, dict[str, int]] = {
@@ -472,7 +482,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             staging.mkdir()
             shutil.copytree(package, staging / "gearpair",
                             ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo"))
-            (staging / "requirements.txt").write_text(REQUIREMENTS)
+            (staging / "requirements.txt").write_text(requirements())
             mod, spec = _load_interface(staging, script)
             _add_compiled_engine(staging / "gearpair", mod.BUNDLE, progress)
             docs = Path(tmp) / "documentation"

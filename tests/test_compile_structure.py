@@ -39,6 +39,29 @@ def test_this_numba_compiles_internal_functions_to_ir_only():
     assert jitlink.LINK_ONLY is not None, jitlink.WHY
 
 
+def test_no_fallback_for_other_numba_internals_is_active():
+    """jitlink and jitcache fall back to numba's default compile and cache when numba's
+    internals differ from those they were written for (correct, but a slower first compile,
+    and a cache keyed by folder that an FMU extracted elsewhere does not find): CI must not
+    pass on that fallback unnoticed."""
+    jitcache.load_engine()  # every entry point, from the shipped code, the cache or compiled
+    missing = jitcache.missing_internals()
+    assert not missing, (f"numba {numba.__version__} lacks internals the fast engine's "
+                         "compile and cache use: " + "; ".join(missing))
+
+
+def test_a_missing_numba_internal_is_named(monkeypatch):
+    from numba.core import caching
+
+    monkeypatch.delattr(caching.CacheImpl, "_locator_classes")
+    assert "jitcache: numba.core.caching.CacheImpl._locator_classes is missing" in \
+        jitcache.missing_internals()
+    monkeypatch.setattr(jitlink, "LINK_ONLY", None)
+    monkeypatch.setattr(jitlink, "WHY", "AttributeError: numba's code library lacks finalize")
+    assert jitlink.missing_internals() == [
+        "jitlink: AttributeError: numba's code library lacks finalize"]
+
+
 def test_only_the_entry_points_have_a_python_wrapper_and_a_cache():
     found = dict(dispatchers())
     assert ENTRIES <= {n.split(".")[1] for n in found}

@@ -189,6 +189,14 @@ def test_resources_and_documentation(fmu_path):
     assert {n for n in names if n.startswith("binaries/")} == {
         "binaries/linux64/GearPair.so", "binaries/linux64/GearPair_pythonfmu.so"}
     assert "numpy" in req and "scipy" in req
+    # the bundled package's requirements are pyproject.toml's, with the tested bounds
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert req.splitlines() == project["dependencies"]
+    assert any(r.startswith("numba>=") and ",<" in r for r in req.splitlines())
     for word in ("torque", "mesh_force", "stick_fraction", "friction_law", "stiffness_model",
                  "rtol", "Eq. (14)", "rpm"):
         assert word in doc

@@ -125,6 +125,8 @@ def _check_shipped(path: str = SHIPPED_DIR) -> tuple[tuple | None, str]:
 
 
 SHIPPED_MAGIC, SHIPPED_WHY = _check_shipped() if KEY is not None else (None, "no engine key")
+# numba internals this module found changed, and the fallback taken (`missing_internals`)
+FALLBACKS: dict[str, str] = {}
 # how the engine's functions were obtained in this process: from the shipped code, from the
 # user cache, or compiled (a count per compiled function and signature)
 STATS = {"shipped": 0, "cached": 0, "compiled": 0}
@@ -194,7 +196,8 @@ def _install_locator() -> bool:
         if not any(getattr(c, "_gearpair_digest", None) == digest for c in classes):
             classes.insert(0, _ContentLocator)
         return True
-    except Exception:  # noqa: BLE001 - numba internals changed: its default locators remain
+    except Exception as e:  # noqa: BLE001 - numba internals changed: its default locators remain
+        FALLBACKS["cache keyed by content"] = f"{type(e).__name__}: {e}"
         return bool(numba.config.CACHE_DIR)
 
 
@@ -237,6 +240,8 @@ def _engine_cache_class():
                         cres = self._impl.rebuild(target_context, data)
                         STATS["shipped"] += 1
                         return cres
+                except AttributeError as e:  # numba's cache internals changed
+                    FALLBACKS["shipped code lookup"] = f"AttributeError: {e}"
                 except Exception:  # noqa: BLE001 - damaged shipped files: the user cache
                     pass
             cres = super().load_overload(sig, target_context)
@@ -270,9 +275,34 @@ def _with_engine_cache(dispatcher):
     if _ENGINE_CACHE is not None and type(getattr(dispatcher, "_cache", None)) is FunctionCache:
         try:
             dispatcher._cache = _ENGINE_CACHE(dispatcher.py_func)
-        except Exception:  # noqa: BLE001 - keep numba's own cache
-            pass
+        except Exception as e:  # noqa: BLE001 - keep numba's own cache
+            FALLBACKS["shipped code cache"] = f"{type(e).__name__}: {e}"
     return dispatcher
+
+
+# numba's caching internals that `_install_locator` and `_engine_cache_class` use
+_CACHING_INTERNALS = {"CacheImpl": ("_locator_classes",), "UserProvidedCacheLocator": (),
+                      "FunctionCache": ("_index_key", "load_overload"),
+                      "IndexDataCacheFile": ("load",)}
+
+
+def missing_internals() -> list[str]:
+    """numba internals that the engine's compile (`jitlink`) and cache (this module) use and
+    this numba lacks, each with the fallback it caused: [] when everything works as designed.
+    The fallbacks keep the engine correct (numba's default compile and cache), but slower to
+    compile or to start, so the test suite fails while one is active."""
+    from numba.core import caching
+
+    out = jitlink.missing_internals()
+    for cls, attrs in _CACHING_INTERNALS.items():
+        obj = getattr(caching, cls, None)
+        if obj is None:
+            out.append(f"jitcache: numba.core.caching.{cls} is missing")
+        out += [f"jitcache: numba.core.caching.{cls}.{a} is missing" for a in attrs
+                if obj is not None and not hasattr(obj, a)]
+    out += [f"jitcache: {what} falls back to numba's own ({why})"
+            for what, why in FALLBACKS.items()]
+    return out
 
 
 def jit_entry(func):

@@ -20,7 +20,9 @@ compiled code would need): the engine's compiled code uses neither, and keeps it
 
 This leans on numba internals (`numba.core.codegen.JITCodeLibrary`, the compiler pipeline);
 `LINK_ONLY` is None, and the engine compiles level by level as numba does by default, when
-they are not as expected (`WHY` says why).
+they are not as expected (`WHY` says why). That fallback is correct but slow to compile, so
+`missing_internals` names what is missing and the test suite fails while it is active; the
+numba versions pyproject.toml admits are the ones this was tested with.
 """
 
 from __future__ import annotations
@@ -97,10 +99,14 @@ def _build():
     def _usable(cg) -> bool:
         """Whether a library of this numba holds what `IROnlyLibrary.finalize` uses (else
         numba's own library is used: machine code at every level, as by default)."""
+        global WHY
         if "ok" not in probe:
             lib = IROnlyLibrary(cg, "gearpair_probe")
-            probe["ok"] = all(hasattr(lib, n) for n in ("_linking_libraries",
-                                                        "_final_module", "_reload_init"))
+            lacks = [n for n in ("_linking_libraries", "_final_module", "_reload_init")
+                     if not hasattr(lib, n)]
+            probe["ok"] = not lacks
+            if lacks:
+                WHY = "numba's code library instances lack " + ", ".join(lacks)
         return probe["ok"]
 
     class IROnlyCompiler(compiler.CompilerBase):
@@ -112,6 +118,7 @@ def _build():
             pm.finalize()
             return [pm]
 
+    IROnlyCompiler.library_usable = staticmethod(_usable)
     return IROnlyCompiler
 
 
@@ -119,6 +126,18 @@ try:
     LINK_ONLY = _build()
 except Exception as e:  # noqa: BLE001 - other numba internals: compile as numba does
     WHY = f"{type(e).__name__}: {e}"
+
+
+def missing_internals() -> list[str]:
+    """What of numba's internals this module needs and this numba lacks: [] when internal
+    functions compile to LLVM IR only, else why numba's default compile is used instead."""
+    if LINK_ONLY is None:
+        return [f"jitlink: {WHY}"]
+    from numba.core.registry import cpu_target
+
+    if not LINK_ONLY.library_usable(cpu_target.target_context.codegen()):
+        return [f"jitlink: {WHY}"]
+    return []
 
 
 def compiled_only(dispatcher):

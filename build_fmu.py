@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import html
 import importlib
+import importlib.util
 import math
 import os
 import shutil
@@ -34,6 +35,7 @@ ROOT = Path(__file__).resolve().parent
 SCRIPT = ROOT / "fmu_src" / "GearPair.py"
 PACKAGE = ROOT / "model" / "gearpair"
 SHIM_SRC = ROOT / "fmu_src" / "c"
+PYTHON_SCRIPT = ROOT / "fmu_src" / "gearpair_python.py"  # resources: which Python to load
 INNER_SUFFIX = "_pythonfmu.so"  # pythonfmu's library beside the C layer: <model><suffix>
 
 
@@ -233,15 +235,20 @@ def shim_table(xml: bytes, lo_open=frozenset(), choices: dict | None = None) -> 
 def add_c_layer(fmu: Path, lo_open=frozenset(), choices: dict | None = None) -> None:
     """Make a pythonfmu FMU's Linux binary the shim (fmu_src/c) over pythonfmu's library,
     which moves beside it as ``<modelIdentifier>_pythonfmu.so``; binaries for other
-    platforms are left out. Call it on the FMU with its final modelDescription.xml."""
+    platforms are left out. The resources get ``python.txt`` (this interpreter, which the
+    shim loads in hosts that are not Python) and ``gearpair_python.py``. Call it on the FMU
+    with its final modelDescription.xml."""
     with zipfile.ZipFile(fmu) as z:
         xml = z.read("modelDescription.xml")
         model = ET.fromstring(xml).find("CoSimulation").get("modelIdentifier")
         pythonfmu_lib = z.read(f"binaries/linux64/{model}.so")
     with tempfile.TemporaryDirectory(prefix="gearpair_shim_") as tmp:
         shim = compile_shim(shim_table(xml, lo_open, choices), Path(tmp), model)
+    # the Python building the FMU: the C layer loads it in hosts that are not Python
     _rewrite_zip(fmu, {f"binaries/linux64/{model}.so": shim,
-                       f"binaries/linux64/{model}{INNER_SUFFIX}": pythonfmu_lib},
+                       f"binaries/linux64/{model}{INNER_SUFFIX}": pythonfmu_lib,
+                       f"resources/{PYTHON_SCRIPT.name}": PYTHON_SCRIPT.read_bytes(),
+                       "resources/python.txt": _describe_python().encode()},
                  drop=lambda name: name.startswith("binaries/")
                  and not name.startswith("binaries/linux64/"))
 
@@ -433,6 +440,16 @@ def _load_interface(staging: Path, script: Path):
     mod = importlib.import_module(script.stem)
     gp = mod._import_gearpair(str(staging))
     return mod, mod.interface(gp)
+
+
+def _describe_python() -> str:
+    """``resources/python.txt``: this interpreter's libpython, home, executable and package
+    folders (`gearpair_python.describe`), for the C layer of hosts that are not Python."""
+    spec = importlib.util.spec_from_file_location("_gearpair_python_build", PYTHON_SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return ("# the Python that built this FMU (build_fmu.py); GEARPAIR_PYTHON overrides it\n"
+            + mod.describe())
 
 
 def _stderr(msg: str) -> None:

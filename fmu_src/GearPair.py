@@ -464,7 +464,9 @@ class GearPair(Fmi2Slave):
                     self._load_fast_engine()
                     return make(params, effects, engine="fast", rtol=float(self.rtol))
                 except ImportError as exc:  # numba missing in this host's Python
-                    self.log(f"engine fast unavailable ({exc}); using engine reference",
+                    self.log(f"engine fast unavailable ({exc}): the reference engine "
+                             "(scipy) runs instead, much slower; install numba into the "
+                             f"environment of {sys.executable or 'this Python'}",
                              Fmi2Status.warning)
             return make(params, effects, engine="reference", rtol=float(self.rtol))
         reference = importlib.import_module(gp.__name__ + ".reference")

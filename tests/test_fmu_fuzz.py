@@ -9,7 +9,7 @@ calls out of order. It keeps its own model of the FMI state machine and requires
 fmi2Fatal, legal calls succeed and illegal ones return fmi2Error, a refused call leaves the
 outputs unchanged and finite and a legal step works after it, replay from a saved or
 deserialized state (also in a fresh instance) is bit-identical. The fuzzer runs in a child
-process (the non-Python host path, with the preload recipe of docs/hosts.md), which must
+process (the non-Python host path, with an empty environment), which must
 exit with status 0 within its time limit.
 
 Seeds are fixed, so a failure reproduces: rerun the printed command line.

@@ -9,6 +9,7 @@ from a launcher would: the FMU must find everything from what it carries.
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -79,3 +80,135 @@ def clean_env(**extra: str) -> dict[str, str]:
     env = {"PATH": "/usr/bin:/bin", "HOME": os.environ.get("HOME", "/root")}
     env.update(extra)
     return env
+
+
+# -- a C master with an empty environment --------------------------------------------------
+def compile_c_host(exe: Path) -> Path:
+    """examples/hosts/fmi2_host.c, built with gcc against fmpy's FMI 2 headers."""
+    gcc = shutil.which("gcc") or shutil.which("cc")
+    include = Path(fmpy.__file__).parent / "c-code"
+    if gcc is None or not (include / "fmi2Functions.h").is_file():
+        pytest.skip("no C compiler or no FMI 2 headers in fmpy")
+    subprocess.run([gcc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{include}",
+                    "-o", str(exe), str(ROOT / "examples" / "hosts" / "fmi2_host.c"), "-ldl",
+                    "-lm"], check=True)
+    return exe
+
+
+@pytest.fixture(scope="module")
+def c_run(fmu_path, tmp_path_factory):
+    """run(env, unzip=None) -> CompletedProcess: the C host example, 3 steps, loggingOn,
+    on an extraction of the FMU (a fresh one per module unless given)."""
+    base = tmp_path_factory.mktemp("c_loading")
+    exe = compile_c_host(base / "fmi2_host")
+    unzip = Path(fmpy.extract(str(fmu_path), unzipdir=str(base / "unzip")))
+    md = fmpy.read_model_description(str(fmu_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+
+    def run(env, where: Path | None = None):
+        return subprocess.run([str(exe), str(where or unzip), "GearPair", md.guid, "1e-4", "3",
+                               "-o", str(vr["mesh_force"]), "-l", "1"],
+                              env=env, capture_output=True, text=True, timeout=300)
+    run.unzip = unzip
+    return run
+
+
+def _venv(where: Path, packages_from: Path | None) -> Path:
+    """A venv of the Python running the tests, without pip; its packages are those of the
+    folder ``packages_from`` (through a .pth file), or none."""
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(where)], check=True)
+    site = next((where / "lib").glob("python3*/site-packages"))
+    if packages_from is not None:
+        (site / "_linked.pth").write_text(str(packages_from) + "\n")
+    return where / "bin" / "python"
+
+
+def _site_packages() -> Path:
+    import sysconfig
+
+    return Path(sysconfig.get_paths()["purelib"])
+
+
+def _one_error(proc) -> list[str]:
+    """The FMU's messages of status error (3) in the C host's stderr."""
+    return [ln for ln in proc.stderr.splitlines() if ln.startswith("[host|3|")]
+
+
+def _shared_python_or_skip():
+    import sysconfig
+
+    if not sysconfig.get_config_var("Py_ENABLE_SHARED"):
+        pytest.skip("the Python running the tests has no shared libpython: the FMU built "
+                    "with it cannot run in a C host")
+
+
+def test_c_master_needs_no_environment(c_run):
+    """`env -i PATH=/usr/bin:/bin HOME=$HOME fmi2_host ...`: the FMU loads the Python that
+    built it, finds its packages and runs the compiled engine; exit status 0."""
+    _shared_python_or_skip()
+    proc = c_run(clean_env())
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert len(proc.stdout.split()) == 4
+    log = proc.stderr
+    assert "the Python that built this FMU" in log and sys.executable in log, log
+    assert "the compiled engine (engine = 0, fast) is available" in log, log
+    assert "fast engine: loaded the compiled code" in log, log  # numba's code, not scipy
+    assert "[host|1|" not in log and "[host|3|" not in log, log  # no warning, no error
+
+
+def test_gearpair_python_names_another_environment(c_run, tmp_path):
+    """GEARPAIR_PYTHON=<another venv>/bin/python: that interpreter and its packages run."""
+    _shared_python_or_skip()
+    other = _venv(tmp_path / "other venv", _site_packages())
+    proc = c_run(clean_env(GEARPAIR_PYTHON=str(other)))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert f"GEARPAIR_PYTHON={other}" in proc.stderr and f"at {other} " in proc.stderr
+    assert "the compiled engine (engine = 0, fast) is available" in proc.stderr
+
+
+def test_an_environment_without_numpy_gives_one_clear_error(c_run, tmp_path):
+    """A copy of the environment without numpy: fmi2Instantiate fails with one message of
+    status error that names numpy, where it looked and the fix; the host exits 1 (its own
+    status for a failed call), no crash, no traceback."""
+    _shared_python_or_skip()
+    pkgs = tmp_path / "pkgs"
+    pkgs.mkdir()
+    for p in _site_packages().iterdir():
+        if not p.name.lower().startswith("numpy") and p.suffix != ".pth":
+            (pkgs / p.name).symlink_to(p)
+    python = _venv(tmp_path / "venv", pkgs)
+    proc = c_run(clean_env(GEARPAIR_PYTHON=str(python)))
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    errors = _one_error(proc)
+    assert len(errors) == 1, proc.stderr
+    msg = errors[0]
+    for words in ("cannot import numpy", str(python), str(pkgs), "-m pip install",
+                  "GEARPAIR_PYTHON"):
+        assert words in msg, (words, msg)
+    assert "Traceback" not in proc.stderr and "fmi2Instantiate failed" in proc.stderr
+
+
+@pytest.mark.parametrize("bad", ["missing", "not python"])
+def test_a_wrong_gearpair_python_gives_one_clear_error(c_run, tmp_path, bad):
+    python = tmp_path / "python"
+    if bad == "not python":
+        python.write_text("#!/bin/sh\necho hello\n")
+        python.chmod(0o755)
+    proc = c_run(clean_env(GEARPAIR_PYTHON=str(python)))
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    errors = _one_error(proc)
+    assert len(errors) == 1 and f"GEARPAIR_PYTHON={python}" in errors[0], proc.stderr
+
+
+def test_a_recorded_python_that_is_gone_gives_one_clear_error(c_run, tmp_path):
+    """The FMU moved to a machine without the Python that built it: one message naming the
+    library it looked for and the override."""
+    where = tmp_path / "moved"
+    shutil.copytree(c_run.unzip, where)
+    rec = where / "resources" / "python.txt"
+    rec.write_text(rec.read_text().replace("libpython=", "libpython=/nowhere"))
+    proc = c_run(clean_env(), where)
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    errors = _one_error(proc)
+    assert len(errors) == 1, proc.stderr
+    assert "/nowhere" in errors[0] and "GEARPAIR_PYTHON" in errors[0], errors

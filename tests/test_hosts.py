@@ -1,6 +1,6 @@
 """The FMU in other co-simulation hosts: libcosimpy and ecospy (two instances in one process
-each), the `ecos` command-line host and a small C host (non-Python: the embedded interpreter
-needs the preload recipe of docs/hosts.md).
+each), the `ecos` command-line host and a small C host (non-Python, run with an empty
+environment: the FMU loads the Python recorded in it).
 
 Every host's outputs are compared with the same case run by fmpy (or, for the C host, with
 the reference engine stepped over the same communication points): ``|host - fmpy| <=
@@ -107,17 +107,12 @@ def test_ecospy_two_instances(fmu_path):
 
 # -- non-Python hosts --------------------------------------------------------------------------
 def native_env() -> dict[str, str]:
-    """Environment for a non-Python host: preload libpython, find the venv's packages."""
-    libdir, ldlib = sysconfig.get_config_var("LIBDIR"), sysconfig.get_config_var("LDLIBRARY")
-    lib = Path(libdir or "", ldlib or "")
-    if not (ldlib and ldlib.endswith(".so") and lib.is_file()):
-        pytest.skip(f"this Python has no shared libpython ({lib}) to preload")
-    paths = dict.fromkeys([sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]])
-    env = dict(os.environ)
-    env["LD_PRELOAD"] = str(lib)
-    env["PYTHONPATH"] = os.pathsep.join(paths)
-    env.pop("PYTHONHOME", None)
-    return env
+    """Environment of a non-Python host: as bare as a launcher's (`env -i PATH=/usr/bin:/bin
+    HOME=$HOME`); the FMU loads the Python recorded in it by itself."""
+    if not sysconfig.get_config_var("Py_ENABLE_SHARED"):
+        pytest.skip("this Python has no shared libpython: a C host cannot run the FMU built "
+                    "with it")
+    return {"PATH": "/usr/bin:/bin", "HOME": os.environ.get("HOME", "/root")}
 
 
 def _signal_name(rc: int) -> str:
@@ -264,7 +259,7 @@ def test_fmpy_command_line_exits_cleanly_and_reports_errors(fmu_path, tmp_path):
 
 
 def test_ecos_command_line(fmu_path, tmp_path):
-    """The `ecos` binary shipped in the ecospy wheel, with the preload recipe."""
+    """The `ecos` binary shipped in the ecospy wheel, with an empty environment."""
     ecospy = _import_or_skip("ecospy", "it needs the Debian package libtbb12")
     src = Path(ecospy.__file__).parent / "binaries"
     if not (src / "ecos").is_file():

@@ -16,14 +16,14 @@
  *     -n VR,VR,...   Integer outputs to print
  *     -t T0          start time (default 0)
  *     -d 1           unload the FMU's library (dlclose) after fmi2FreeInstance
+ *     -l 1           loggingOn: information messages too (e.g. which Python and engine run)
  * Prints "time,<reals...>,<integers...>" for the initial state and after each step. Exits 0
  * when every call returned fmi2OK/fmi2Warning, else 1 (with the failing call on stderr).
  * Returns from main normally: the FMU's embedded interpreter lives until the process ends
  * and the exit is clean (docs/hosts.md).
  *
- * A pythonfmu FMU's library does not link libpython: run with
- *   LD_PRELOAD=/path/to/libpython3.X.so PYTHONPATH=<venv>/lib/python3.X/site-packages
- * (see docs/hosts.md).
+ * GearPair.fmu needs no environment variables: its binary loads the Python recorded in the
+ * FMU (or the one GEARPAIR_PYTHON names; see docs/hosts.md).
  */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
@@ -97,7 +97,7 @@ int main(int argc, char **argv) {
     double rval[MAXV];
     int ival[MAXV], n_r = 0, n_i = 0, n_or = 0, n_oi = 0;
     double t = 0.0;
-    int unload = 0;
+    int unload = 0, logging_on = 0;
     for (int a = 6; a + 1 < argc; a += 2) {
         const char *opt = argv[a], *arg = argv[a + 1];
         if (!strcmp(opt, "-r") && n_r < MAXV) {
@@ -114,6 +114,8 @@ int main(int argc, char **argv) {
             t = strtod(arg, NULL);
         } else if (!strcmp(opt, "-d")) {
             unload = atoi(arg);
+        } else if (!strcmp(opt, "-l")) {
+            logging_on = atoi(arg);
         } else {
             fprintf(stderr, "unknown option %s\n", opt);
             return 2;
@@ -143,7 +145,8 @@ int main(int argc, char **argv) {
     fmi2FreeInstanceTYPE *free_instance = (fmi2FreeInstanceTYPE *)sym(lib, "fmi2FreeInstance");
 
     fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
-    fmi2Component c = instantiate("host", fmi2CoSimulation, guid, uri, &cb, fmi2False, fmi2False);
+    fmi2Component c = instantiate("host", fmi2CoSimulation, guid, uri, &cb, fmi2False,
+                                 logging_on ? fmi2True : fmi2False);
     if (!c) {
         fprintf(stderr, "fmi2Instantiate failed\n");
         return 1;

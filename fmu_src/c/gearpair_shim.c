@@ -24,14 +24,20 @@
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
 #include <math.h>
 #include <pthread.h>
+#include <spawn.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <wchar.h>
 
 #include "fmi2_abi.h"
@@ -154,7 +160,7 @@ static const char *status_category(fmi2Status st) {
 static void say(Shim *s, fmi2Status status, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 static void say(Shim *s, fmi2Status status, const char *fmt, ...) {
-    char buf[1024];
+    char buf[8192];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
@@ -210,35 +216,305 @@ static void *load_sym(void *lib, const char *name, char *err, size_t n) {
  * finalization). Finalizing it earlier (at the last fmi2FreeInstance) is not an option:
  * numpy and scipy cannot be imported again into a second interpreter of the same process.
  * In a Python host the interpreter is the host's and nothing here touches it. */
-static int ensure_python(char *err, size_t n) {
-    int (*is_init)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
-    if (!is_init) {
-        snprintf(err, n, "the Python C API is not loaded in this process: a host that is not "
-                 "Python must preload the shared libpython whose packages (numpy, scipy, "
-                 "numba) the FMU should use, e.g. LD_PRELOAD=<prefix>/lib/libpython3.X.so and "
-                 "PYTHONPATH=<environment>/lib/python3.X/site-packages");
-        return -1;
+/* -- which Python ---------------------------------------------------------------------------
+ * A host that is not Python has no interpreter: the layer loads one itself. Which one is
+ * written in the FMU's resources (python.txt, by build_fmu.py: the Python that built it),
+ * unless GEARPAIR_PYTHON names a python executable, which is then asked the same questions
+ * (resources/gearpair_python.py prints them). Nothing in the host's environment is set. */
+#define PY_FIELD 1024
+typedef struct {
+    char version[64], libpython[PY_FIELD], home[PY_FIELD], executable[PY_FIELD];
+    char sites[8 * PY_FIELD]; /* package folders, one per line */
+    char origin[PY_FIELD + 64]; /* how it was chosen, for messages */
+} PyChoice;
+static PyChoice g_py;
+static int g_py_started; /* the interpreter is this layer's (not the host's) */
+
+static void parse_choice(const char *text, PyChoice *c) {
+    c->version[0] = c->libpython[0] = c->home[0] = c->executable[0] = c->sites[0] = 0;
+    for (const char *line = text; line && *line;) {
+        const char *nl = strchr(line, '\n'), *eq = strchr(line, '=');
+        size_t len = nl ? (size_t)(nl - line) : strlen(line);
+        if (eq && eq < line + len && line[0] != '#') {
+            size_t k = (size_t)(eq - line), vlen = len - k - 1;
+            char *dst = !strncmp(line, "version", k) && k == 7 ? c->version
+                        : !strncmp(line, "libpython", k) && k == 9 ? c->libpython
+                        : !strncmp(line, "home", k) && k == 4 ? c->home
+                        : !strncmp(line, "executable", k) && k == 10 ? c->executable : NULL;
+            size_t cap = dst == c->version ? sizeof c->version : PY_FIELD;
+            if (dst && vlen < cap) {
+                memcpy(dst, eq + 1, vlen);
+                dst[vlen] = 0;
+            } else if (k == 4 && !strncmp(line, "site", 4)) {
+                size_t used = strlen(c->sites);
+                if (used + vlen + 2 < sizeof c->sites)
+                    snprintf(c->sites + used, sizeof c->sites - used, "%.*s\n", (int)vlen,
+                             eq + 1);
+            }
+        }
+        line = nl ? nl + 1 : NULL;
     }
-    if (is_init()) return 0;
-    void (*set_name)(const wchar_t *) =
-        (void (*)(const wchar_t *))dlsym(RTLD_DEFAULT, "Py_SetProgramName");
-    void (*init_ex)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "Py_InitializeEx");
-    void *(*save_thread)(void) = (void *(*)(void))dlsym(RTLD_DEFAULT, "PyEval_SaveThread");
-    if (!init_ex || !save_thread) {
-        snprintf(err, n, "the loaded libpython lacks Py_InitializeEx/PyEval_SaveThread");
-        return -1;
-    }
-    /* a program name that is not on PATH: the prefix (standard library) then comes from
-     * the preloaded libpython itself, not from whichever python3 PATH finds first */
-    if (set_name) set_name(L"./GearPairFMU");
-    init_ex(0); /* 0: leave the host's signal handlers alone */
-    save_thread(); /* release the GIL: pythonfmu takes it per call, from any thread */
+}
+
+static int read_text(const char *path, char *buf, size_t n) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return -1;
+    size_t got = fread(buf, 1, n - 1, f);
+    buf[got] = 0;
+    fclose(f);
     return 0;
 }
 
-static int load_inner(char *err, size_t n) {
+/* Run `python script` and read what it prints (its stderr goes to /dev/null). */
+static int ask_python(const char *python, const char *script, char *out, size_t n, char *err,
+                      size_t en) {
+    extern char **environ;
+    int fds[2];
+    if (pipe(fds)) {
+        snprintf(err, en, "pipe failed: %s", strerror(errno));
+        return -1;
+    }
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
+    posix_spawn_file_actions_addclose(&fa, fds[0]);
+    posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+    char *argv[] = {(char *)python, (char *)script, NULL};
+    pid_t pid;
+    int rc = posix_spawn(&pid, python, &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(fds[1]);
+    if (rc) {
+        close(fds[0]);
+        snprintf(err, en, "cannot run it: %s", strerror(rc));
+        return -1;
+    }
+    size_t got = 0;
+    ssize_t r;
+    while ((r = read(fds[0], out + got, n - 1 - got)) > 0 || (r < 0 && errno == EINTR))
+        if (r > 0 && (got += (size_t)r) >= n - 1) break;
+    out[got] = 0;
+    close(fds[0]);
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    if (!WIFEXITED(status) || WEXITSTATUS(status) || !strstr(out, "libpython=")) {
+        snprintf(err, en, "it did not describe itself (exit status %d; is it Python 3?)",
+                 WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+        return -1;
+    }
+    return 0;
+}
+
+static const char FIX[] =
+    "Fix: set GEARPAIR_PYTHON to the python executable of an environment with numpy, scipy, "
+    "numba and pythonfmu whose Python has a shared libpython (a venv of such a Python "
+    "works), or build the FMU on this machine (python build_fmu.py); see docs/hosts.md";
+
+/* Fill g_py from GEARPAIR_PYTHON or the FMU's record. */
+static int choose_python(const char *folder, char *err, size_t n) {
+    static char text[16 * PY_FIELD];
+    const char *over = getenv("GEARPAIR_PYTHON");
+    char script[4200], why[512];
+    snprintf(script, sizeof script, "%s/gearpair_python.py", folder);
+    if (over && *over) {
+        if (ask_python(over, script, text, sizeof text, why, sizeof why)) {
+            snprintf(err, n, "GEARPAIR_PYTHON=%s: %s. Set it to a python executable (e.g. "
+                     "<venv>/bin/python) or unset it to use the Python that built the FMU",
+                     over, why);
+            return -1;
+        }
+        snprintf(g_py.origin, sizeof g_py.origin, "GEARPAIR_PYTHON=%s", over);
+    } else {
+        char rec[4200];
+        snprintf(rec, sizeof rec, "%s/python.txt", folder);
+        if (read_text(rec, text, sizeof text)) {
+            snprintf(err, n, "this FMU records no Python (%s is missing). %s", rec, FIX);
+            return -1;
+        }
+        snprintf(g_py.origin, sizeof g_py.origin, "the Python that built this FMU, recorded "
+                 "in its resources");
+    }
+    parse_choice(text, &g_py);
+    return 0;
+}
+
+/* The embedded interpreter: started here, once per process, and never finalized.
+ *
+ * pythonfmu starts Python itself when the host has not, and finalizes it from a C++ static
+ * destructor at process exit. Exit handlers run in the reverse order of registration, and
+ * that destructor is registered when pythonfmu's library loads, before the Python extension
+ * modules the slave imports register theirs: by the time pythonfmu finalizes, scipy's
+ * `_uarray` (imported through scipy.optimize/scipy.linalg) has destroyed its static C++
+ * objects, and the interpreter's final garbage collection frees them a second time (heap
+ * corruption, SIGSEGV in `Function::clear`). Starting the interpreter here, before
+ * pythonfmu looks, makes pythonfmu treat it as the host's: it never finalizes it. The
+ * interpreter then ends with the process, as Python's own extension modules expect (their
+ * static destructors run after a live or finalized interpreter alike, never before a
+ * finalization). Finalizing it earlier (at the last fmi2FreeInstance) is not an option:
+ * numpy and scipy cannot be imported again into a second interpreter of the same process.
+ * In a Python host the interpreter is the host's and nothing here touches it.
+ *
+ * The libpython is loaded RTLD_GLOBAL (pythonfmu's library and Python's extension modules
+ * resolve the C API from the global scope). Its program name is the recorded executable,
+ * so the interpreter finds a venv as that python would (pyvenv.cfg, then site-packages with
+ * its .pth files), and its home is the installation's prefix (the standard library),
+ * without PYTHONHOME or PYTHONPATH in the host's environment. */
+static int ensure_python(const char *folder, char *err, size_t n) {
+    int (*is_init)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    if (is_init && is_init()) return 0; /* a Python host: its interpreter, unchanged */
+    if (choose_python(folder, err, n)) {
+        if (!is_init) return -1;
+        g_py.origin[0] = 0; /* a preloaded libpython, nothing recorded: take it as it is */
+    }
+    if (!is_init) {
+        if (!g_py.libpython[0]) {
+            snprintf(err, n, "%s (Python %s, %s) has no shared libpython (built without "
+                     "--enable-shared), so it cannot run inside this host. %s", g_py.origin,
+                     g_py.version, g_py.executable, FIX);
+            return -1;
+        }
+        void *lib = dlopen(g_py.libpython, RTLD_NOW | RTLD_GLOBAL | RTLD_NODELETE);
+        if (!lib) {
+            snprintf(err, n, "cannot load the Python library %s of %s (%s): %s. %s",
+                     g_py.libpython, g_py.origin, g_py.executable, dlerror(), FIX);
+            return -1;
+        }
+        is_init = (int (*)(void))dlsym(lib, "Py_IsInitialized");
+    } else if (g_py.origin[0]) { /* preloaded (LD_PRELOAD): the record applies if it is it */
+        Dl_info info;
+        char a[PATH_MAX], b[PATH_MAX];
+        if (!dladdr((void *)is_init, &info) || !info.dli_fname ||
+            !realpath(info.dli_fname, a) || !realpath(g_py.libpython, b) || strcmp(a, b)) {
+            snprintf(g_py.origin, sizeof g_py.origin, "the libpython the host preloaded (%s)",
+                     info.dli_fname ? info.dli_fname : "?");
+            g_py.executable[0] = g_py.home[0] = g_py.sites[0] = 0;
+        }
+    }
+    void (*init_ex)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "Py_InitializeEx");
+    void *(*save_thread)(void) = (void *(*)(void))dlsym(RTLD_DEFAULT, "PyEval_SaveThread");
+    wchar_t *(*decode)(const char *, size_t *) =
+        (wchar_t * (*)(const char *, size_t *)) dlsym(RTLD_DEFAULT, "Py_DecodeLocale");
+    void (*set_name)(const wchar_t *) =
+        (void (*)(const wchar_t *))dlsym(RTLD_DEFAULT, "Py_SetProgramName");
+    void (*set_home)(const wchar_t *) =
+        (void (*)(const wchar_t *))dlsym(RTLD_DEFAULT, "Py_SetPythonHome");
+    if (!is_init || !init_ex || !save_thread || !decode) {
+        snprintf(err, n, "the Python library of %s lacks Py_InitializeEx/PyEval_SaveThread",
+                 g_py.origin[0] ? g_py.origin : "the host");
+        return -1;
+    }
+    if (is_init()) return 0;
+    /* Both strings must outlive the interpreter (Py_SetProgramName keeps the pointer).
+     * Without a record: a program name that is not on PATH, so the prefix (standard
+     * library) comes from the preloaded libpython itself, not from whichever python3 PATH
+     * finds first. */
+    if (set_name) set_name(decode(g_py.executable[0] ? g_py.executable : "./GearPairFMU", NULL));
+    if (set_home && g_py.home[0]) set_home(decode(g_py.home, NULL));
+    init_ex(0); /* 0: leave the host's signal handlers alone */
+    save_thread(); /* release the GIL: pythonfmu takes it per call, from any thread */
+    g_py_started = 1;
+    return 0;
+}
+
+/* A Python bytes literal of `s` (every byte outside a safe set escaped), for code run in the
+ * interpreter: paths may hold quotes, backslashes or any UTF-8. */
+static void py_bytes(const char *s, char *out, size_t n) {
+    size_t o = 0;
+    if (n < 4) return;
+    out[o++] = 'b';
+    out[o++] = '\'';
+    for (; *s && o + 6 < n; s++) {
+        unsigned char c = (unsigned char)*s;
+        if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+            strchr("/._-+:= ,()", c))
+            out[o++] = (char)c;
+        else
+            o += (size_t)snprintf(out + o, n - o, "\\x%02x", c);
+    }
+    out[o++] = '\'';
+    out[o] = 0;
+}
+
+/* Before pythonfmu imports the slave: make the recorded package folders importable (only in
+ * an interpreter started here) and check that numpy, scipy and pythonfmu import
+ * (resources/gearpair_python.py). One message names what is missing, where it looked and
+ * the fix; `note` says which Python runs (and whether numba is there). Returns -1 with `err`
+ * set when the FMU cannot run. */
+static int check_python(const char *folder, char *note, size_t nn, char *err, size_t n) {
+    int (*ensure)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "PyGILState_Ensure");
+    void (*release)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "PyGILState_Release");
+    void *(*new_dict)(void) = (void *(*)(void))dlsym(RTLD_DEFAULT, "PyDict_New");
+    void *(*run)(const char *, int, void *, void *, void *) =
+        (void *(*)(const char *, int, void *, void *, void *))dlsym(RTLD_DEFAULT,
+                                                                  "PyRun_StringFlags");
+    void *(*item)(void *, const char *) =
+        (void *(*)(void *, const char *))dlsym(RTLD_DEFAULT, "PyDict_GetItemString");
+    const char *(*utf8)(void *) = (const char *(*)(void *))dlsym(RTLD_DEFAULT,
+                                                                 "PyUnicode_AsUTF8");
+    void (*decref)(void *) = (void (*)(void *))dlsym(RTLD_DEFAULT, "Py_DecRef");
+    void (*clear)(void) = (void (*)(void))dlsym(RTLD_DEFAULT, "PyErr_Clear");
+    if (!ensure || !release || !new_dict || !run || !item || !utf8 || !decref || !clear)
+        return 0; /* not a CPython we know: let pythonfmu try */
+    char script[4200];
+    snprintf(script, sizeof script, "%s/gearpair_python.py", folder);
+    if (access(script, R_OK)) return 0; /* an FMU built without it: nothing to check */
+    static char code[64 * PY_FIELD];
+    static char lit_script[4 * 4200 + 8], lit_sites[4 * sizeof g_py.sites + 8];
+    static char lit_origin[4 * sizeof g_py.origin + 8];
+    py_bytes(script, lit_script, sizeof lit_script);
+    py_bytes(g_py_started ? g_py.sites : "", lit_sites, sizeof lit_sites);
+    py_bytes(g_py_started ? (g_py.origin[0] ? g_py.origin : "the libpython the host preloaded")
+             : getenv("GEARPAIR_PYTHON") ? "the host's own Python; GEARPAIR_PYTHON is not "
+                                           "used in a Python host"
+                                         : "the host's own Python",
+             lit_origin, sizeof lit_origin);
+    snprintf(code, sizeof code,
+             "def _gp_check():\n"
+             "    import sys, importlib.util\n"
+             "    d = lambda b: b.decode('utf-8', 'surrogateescape')\n"
+             "    m = sys.modules.get('_gearpair_python')\n"
+             "    if m is None:\n"
+             "        spec = importlib.util.spec_from_file_location('_gearpair_python', "
+             "d(%s))\n"
+             "        m = importlib.util.module_from_spec(spec)\n"
+             "        spec.loader.exec_module(m)\n"
+             "        sys.modules['_gearpair_python'] = m\n"
+             "    return m.prepare(d(%s).split('\\n'), %d, d(%s))\n"
+             "try:\n"
+             "    error, note = _gp_check()\n"
+             "except BaseException as e:\n"
+             "    error, note = 'checking the Python failed: %%s: %%s' %% (type(e).__name__, "
+             "e), ''\n",
+             lit_script, lit_sites, g_py_started, lit_origin);
+    int gil = ensure();
+    int bad = 0;
+    void *g = new_dict();
+    void *r = g ? run(code, 257 /* Py_file_input */, g, g, NULL) : NULL;
+    if (!r) {
+        clear();
+        snprintf(err, n, "the FMU could not check its Python (%s)", script);
+        bad = -1;
+    } else {
+        decref(r);
+        void *e = item(g, "error"), *t = item(g, "note");
+        const char *es = e ? utf8(e) : NULL, *ts = t ? utf8(t) : NULL;
+        if (!es || !ts) clear();
+        if (es && es[0]) {
+            snprintf(err, n, "%s", es);
+            bad = -1;
+        }
+        snprintf(note, nn, "%s", ts ? ts : "");
+    }
+    if (g) decref(g);
+    release(gil);
+    return bad;
+}
+
+static int load_inner(const char *folder, char *note, size_t nn, char *err, size_t n) {
+    if (!g_loaded && ensure_python(folder, err, n)) return -1;
+    if (check_python(folder, note, nn, err, n)) return -1;
     if (g_loaded) return 0;
-    if (ensure_python(err, n)) return -1;
     Dl_info info;
     if (!dladdr((void *)&load_inner, &info) || !info.dli_fname) {
         snprintf(err, n, "cannot locate the FMU's binary folder (dladdr failed)");
@@ -516,9 +792,9 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
         goto fail;
     }
     snprintf(uri, sizeof uri, "file://%s", folder);
-    char err[1024] = "";
+    char err[8192] = "", note[2048] = "";
     pthread_mutex_lock(&g_lock);
-    int bad = load_inner(err, sizeof err);
+    int bad = load_inner(folder, note, sizeof note, err, sizeof err);
     if (!bad) {
         s->mine = *cb;
         s->mine.logger = inner_logger;
@@ -540,6 +816,7 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
         goto fail;
     }
     if (!s->inner) goto fail; /* pythonfmu logged why */
+    if (note[0]) say(s, fmi2OK, "GearPair FMU %s", note); /* which Python and engine */
     flush_log(s);
     return s;
 fail:

@@ -212,3 +212,90 @@ def test_a_recorded_python_that_is_gone_gives_one_clear_error(c_run, tmp_path):
     errors = _one_error(proc)
     assert len(errors) == 1, proc.stderr
     assert "/nowhere" in errors[0] and "GEARPAIR_PYTHON" in errors[0], errors
+
+
+# -- calls after the host's interpreter has finalized -----------------------------------------
+_LATE_C = r"""
+#include <stdio.h>
+#include <stdlib.h>
+typedef int (*call_t)(void *);
+typedef void (*free_t)(void *);
+typedef int (*step_t)(void *, double, double, int);
+static void *comp;
+static call_t term;
+static free_t fr;
+static step_t step;
+static double t_next;
+/* a C master's logger (OMSimulator's is C++) */
+void c_logger(void *env, const char *inst, int st, const char *cat, const char *msg, ...) {
+    (void)env;
+    fprintf(stderr, "[late-log %s|%d|%s] %s\n", inst, st, cat ? cat : "(null)", msg);
+}
+/* as OMSimulator's static destructor: after Python has finalized */
+static void late(void) {
+    int s = step(comp, t_next, 1e-4, 1);
+    int t = term(comp);
+    fr(comp);
+    fprintf(stderr, "late: doStep %d terminate %d freed\n", s, t);
+}
+void arm(void *c, void *tm, void *f, void *st, double t) {
+    comp = c, term = (call_t)tm, fr = (free_t)f, step = (step_t)st, t_next = t;
+    atexit(late);
+}
+"""
+
+_LATE_HOST = r"""
+import ctypes, sys
+import fmpy
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE,
+                       fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, calloc, free)
+fmu, helper, native = sys.argv[1], ctypes.CDLL(sys.argv[2]), sys.argv[3] == "native"
+md = fmpy.read_model_description(fmu)
+s = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu), modelIdentifier="GearPair",
+              instanceName="late")
+cb = None
+if native:
+    cb = fmi2CallbackFunctions()
+    cb.logger = ctypes.cast(helper.c_logger, fmi2CallbackLoggerTYPE)
+    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+s.instantiate(callbacks=cb)
+s.setupExperiment(startTime=0.0); s.enterInitializationMode(); s.exitInitializationMode()
+s.doStep(0.0, 1e-4)
+addr = lambda f: ctypes.cast(f, ctypes.c_void_p)
+helper.arm.argtypes = [ctypes.c_void_p] * 4 + [ctypes.c_double]
+helper.arm(s.component, addr(s.dll.fmi2Terminate), addr(s.dll.fmi2FreeInstance),
+           addr(s.dll.fmi2DoStep), 1e-4)
+print("alive", flush=True)  # the script ends with the instance alive
+"""
+
+
+@pytest.mark.parametrize("logger", ["native", "ctypes"])
+def test_calls_after_the_python_host_finalized_are_answered_by_the_c_layer(fmu_path, tmp_path,
+                                                                           logger):
+    """OMSimulator's Python API path: a Python host ends with an instance alive, and its
+    exit handler (after the interpreter finalized) calls fmi2DoStep, fmi2Terminate and
+    fmi2FreeInstance. The C layer answers without entering Python: fmi2Error for the step
+    (one message, with a category, through a C logger; fmpy's logger, which calls into
+    Python, is not called: the message goes to stderr), fmi2OK for fmi2Terminate; the
+    process exits with status 0."""
+    gcc = shutil.which("gcc") or shutil.which("cc")
+    if gcc is None:
+        pytest.skip("no C compiler")
+    (tmp_path / "late.c").write_text(_LATE_C)
+    helper = tmp_path / "late.so"
+    subprocess.run([gcc, "-shared", "-fPIC", "-o", str(helper), str(tmp_path / "late.c")],
+                   check=True)
+    r = subprocess.run([sys.executable, "-c", _LATE_HOST, str(fmu_path), str(helper), logger],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.split() == ["alive"]
+    assert "late: doStep 3 terminate 0 freed" in r.stderr, r.stderr[-3000:]
+    said = [ln for ln in r.stderr.splitlines() if ln.startswith("[late-log")]
+    if logger == "native":
+        assert len(said) == 1 and "[late-log late|3|logStatusError] fmi2DoStep: the host's " \
+            "Python interpreter has finalized" in said[0], r.stderr[-3000:]
+    else:
+        assert not said
+        assert "GearPair FMU instance late: fmi2DoStep: the host's Python interpreter has " \
+            "finalized" in r.stderr, r.stderr[-3000:]

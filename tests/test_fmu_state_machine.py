@@ -125,6 +125,13 @@ def test_invalid_value_is_refused_when_set_and_the_old_value_kept(md, unzipdir, 
     assert all(w in msg for w in words), msg
     g.set(rtol=RTOL)
     g.fmu.enterInitializationMode()
+    var = next(v for v in md.modelVariables if v.name == name)
+    start = int(var.start) if var.type == "Integer" else float(var.start)
+    get = g.fmu.getInteger if var.type == "Integer" else g.fmu.getReal
+    assert get([var.valueReference]) == [start]  # the old value kept
+    # remembered: initialization ends only once a valid value is set again
+    assert f"{name} = " in g.refused(g.fmu.exitInitializationMode)
+    g.set(**{name: start})
     if name in ("speed", "torque"):  # inputs: refused in step mode as well
         g.fmu.exitInitializationMode()
         t, rows = g.steps(0.0, 1)
@@ -229,5 +236,47 @@ def test_truncated_or_altered_serialized_state_is_refused(md, unzipdir):
     g.fmu.freeFMUstate(s)
     _, again = g.steps(t, 2)
     assert again == more and rows + more == reference(md, unzipdir, 4)
+    g.fmu.terminate()
+    g.fmu.freeInstance()
+
+
+def test_a_value_refused_before_initialization_stops_exit_initialization_mode(md, unzipdir):
+    """Masters that ignore fmi2SetReal's status (OMSimulator) must not run with a value the
+    user did not get: a refused start value makes fmi2ExitInitializationMode return
+    fmi2Error naming it, until a valid value for it is set; then the run is that of an
+    instance given the valid value at once."""
+    g = G(md, unzipdir)
+    g.fmu.setupExperiment(startTime=0.0)
+    g.refused(g.set, mu=-1.0)  # instantiated
+    g.set(rtol=RTOL)
+    g.fmu.enterInitializationMode()
+    msg = g.refused(g.fmu.exitInitializationMode)
+    assert "mu = -1 was refused at fmi2SetReal; set a valid value or leave it unset" in msg
+    msg = g.refused(g.fmu.exitInitializationMode)  # still in initialization mode, still so
+    assert "mu = -1 was refused" in msg
+    g.set(mu=0.05)
+    g.fmu.exitInitializationMode()
+    assert g.fmu.getReal([g.vr["mu"]]) == [0.05]
+    _, rows = g.steps(0.0, 3)
+    assert rows == reference(md, unzipdir, 3, mu=0.05)
+
+
+def test_every_value_of_a_refused_call_is_named_and_reset_forgets_them(md, unzipdir):
+    """One fmi2SetReal with a valid and an invalid value takes neither: both are named (in
+    initialization mode as before it); an Integer code too. fmi2Reset starts afresh."""
+    g = G(md, unzipdir)
+    g.fmu.setupExperiment(startTime=0.0)
+    g.fmu.enterInitializationMode()
+    g.refused(g.fmu.setReal, [g.vr["m1"], g.vr["rtol"]], [2.0, 0.5])
+    g.refused(g.set, friction_law=7)
+    msg = g.refused(g.fmu.exitInitializationMode)
+    assert "m1 = 2 was not taken" in msg and "rtol = 0.5 was refused at fmi2SetReal" in msg
+    assert "friction_law = 7 was refused at fmi2SetInteger" in msg
+    assert "set valid values or leave them unset" in msg
+    g.set(m1=2.0, rtol=RTOL)
+    assert "friction_law = 7" in g.refused(g.fmu.exitInitializationMode)
+    g.fmu.reset()
+    g.init()
+    g.steps(0.0, 1)
     g.fmu.terminate()
     g.fmu.freeInstance()

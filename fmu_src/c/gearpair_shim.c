@@ -92,6 +92,7 @@ static struct {
 } inner;
 static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER; /* loading, instantiate, free */
 static int g_loaded;
+static int (*g_py_is_init)(void), (*g_py_finalizing)(void); /* see `py_gone` */
 
 /* A state handed to the host: the slave's state and this layer's mode, in a list per
  * instance so that a pointer the instance did not hand out is refused, not dereferenced. */
@@ -115,6 +116,16 @@ typedef struct {
     fmi2Status worst; /* worst status the slave logged during the current call */
     double last_successful_time;
     State *states;
+    /* values refused (or not taken with a refused one) before initialization ended, by
+     * GP_VARS index: fmi2ExitInitializationMode refuses while any is left (masters that
+     * ignore fmi2SetReal's status would otherwise run with a value the user did not get) */
+    struct {
+        char what; /* 0 none, 'r' refused, 'n' not taken: the same call had a refused value */
+        char text[40];
+        const char *fn;
+    } refused[GP_NVARS];
+    int n_refused;
+    int late_said; /* the message about a finalized interpreter was given */
 } Shim;
 
 /* -- logging ---------------------------------------------------------------------------- */
@@ -555,8 +566,51 @@ static int load_inner(const char *folder, char *note, size_t nn, char *err, size
     inner.do_step = (fmi2DoStepTYPE *)load_sym(lib, "fmi2DoStep", err, n);
     if (err[0]) return -1;
     inner.release_guard = (void (*)(void))dlsym(lib, "finalizePythonInterpreter");
+    g_py_is_init = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    g_py_finalizing = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsFinalizing"); /* 3.13 */
+    if (!g_py_finalizing)
+        g_py_finalizing = (int (*)(void))dlsym(RTLD_DEFAULT, "_Py_IsFinalizing");
     g_loaded = 1;
     return 0;
+}
+
+/* -- after the host's interpreter ------------------------------------------------------------
+ * A Python host may end with an instance alive: OMSimulator's Python API destroys its models
+ * from a static destructor after Python has finalized, and pythonfmu would then take the GIL
+ * of a finalized interpreter (SIGSEGV). Every call checks first and is answered here. */
+static int py_gone(void) {
+    return g_loaded && ((g_py_is_init && !g_py_is_init()) ||
+                        (g_py_finalizing && g_py_finalizing()));
+}
+
+/* Whether the host's logger can be called after its interpreter finalized: not if it is
+ * Python's (a ctypes callback: anonymous memory or libffi) or lies in a Python package
+ * (fmpy's logging.so forwards to a Python function); a C/C++ host's logger (OMSimulator's)
+ * lies in one of the host's own files. An interpreter started here never ends. */
+static int logger_is_native(const Shim *s) {
+    static const char *const python_places[] = {"site-packages", "dist-packages",
+                                                "lib-dynload", "libffi", "_ctypes",
+                                                "libpython"};
+    Dl_info info;
+    if (g_py_started) return 1;
+    if (!s->host.logger || !dladdr((void *)s->host.logger, &info) || !info.dli_fname)
+        return 0;
+    for (size_t i = 0; i < sizeof python_places / sizeof *python_places; i++)
+        if (strstr(info.dli_fname, python_places[i])) return 0;
+    return 1;
+}
+
+/* Once per instance: through the host's logger when that is safe, else on stderr. */
+static void late_call(Shim *s, const char *fn) {
+    static const char msg[] = "the host's Python interpreter has finalized (the process is "
+                              "ending): the FMU cannot run any more; only fmi2Terminate and "
+                              "fmi2FreeInstance are answered (by its C layer)";
+    if (s->late_said) return;
+    s->late_said = 1;
+    if (logger_is_native(s))
+        say(s, fmi2Error, "%s: %s", fn, msg);
+    else
+        fprintf(stderr, "GearPair FMU instance %s: %s: %s\n", s->name, fn, msg);
 }
 
 /* -- helpers ----------------------------------------------------------------------------- */
@@ -564,6 +618,10 @@ static Shim *live(fmi2Component c) { return (Shim *)c; }
 
 /* Refuse a call not allowed in the instance's mode. */
 static int allowed(Shim *s, unsigned modes, const char *fn) {
+    if (py_gone()) {
+        late_call(s, fn);
+        return 0;
+    }
     if (IN(s->mode, modes)) return 1;
     say(s, fmi2Error, "%s is not allowed in %s%s", fn, MODE_NAME[s->mode],
         s->mode == M_INIT && !strcmp(fn, "fmi2DoStep")
@@ -666,6 +724,64 @@ static int int_ok(Shim *s, const char *fn, const GpVar *v, int x) {
             "its value", fn, v->name, x, r, v->name);
     }
     return ok;
+}
+
+/* -- values refused before initialization ended ---------------------------------------------- */
+/* Remember a refused fmi2Set* call (before or in initialization mode): the value at `bad`
+ * was refused, the others of the call were not taken either. Returns fmi2Error. */
+static fmi2Status refuse(Shim *s, const char *fn, const fmi2ValueReference vr[], size_t nvr,
+                         size_t bad, char type, const void *values) {
+    if (s->mode != M_INSTANTIATED && s->mode != M_INIT) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) {
+        const GpVar *v = find_var(vr[i], type);
+        if (!v || v->causality == 'o') continue;
+        int k = (int)(v - GP_VARS);
+        if (!s->refused[k].what) s->n_refused++;
+        s->refused[k].what = i == bad ? 'r' : 'n';
+        s->refused[k].fn = fn;
+        if (type == 'R')
+            snprintf(s->refused[k].text, sizeof s->refused[k].text, "%.10g",
+                     ((const fmi2Real *)values)[i]);
+        else if (type == 'I')
+            snprintf(s->refused[k].text, sizeof s->refused[k].text, "%d",
+                     ((const fmi2Integer *)values)[i]);
+        else
+            snprintf(s->refused[k].text, sizeof s->refused[k].text, "%s",
+                     ((const fmi2Boolean *)values)[i] ? "true" : "false");
+    }
+    return fmi2Error;
+}
+
+/* A set that went through: its variables hold values the user asked for again. */
+static fmi2Status taken(Shim *s, const fmi2ValueReference vr[], size_t nvr, char type,
+                        fmi2Status st) {
+    if (!s->n_refused || st > fmi2Warning) return st;
+    for (size_t i = 0; i < nvr; i++) {
+        const GpVar *v = find_var(vr[i], type);
+        if (v && s->refused[v - GP_VARS].what) {
+            s->refused[v - GP_VARS].what = 0;
+            s->n_refused--;
+        }
+    }
+    return st;
+}
+
+static fmi2Status refused_report(Shim *s) {
+    char list[4096];
+    size_t o = 0;
+    list[0] = 0;
+    for (int k = 0; k < GP_NVARS && o < sizeof list; k++) {
+        if (!s->refused[k].what) continue;
+        o += (size_t)snprintf(list + o, sizeof list - o, "%s%s = %s was %s at %s",
+                              o ? ", " : "", GP_VARS[k].name, s->refused[k].text,
+                              s->refused[k].what == 'r' ? "refused"
+                                                        : "not taken (refused with the call)",
+                              s->refused[k].fn);
+    }
+    say(s, fmi2Error, "fmi2ExitInitializationMode refused: %s; set %s or leave %s unset "
+        "(the FMU stays in initialization mode)", list,
+        s->n_refused > 1 ? "valid values" : "a valid value", s->n_refused > 1 ? "them" : "it");
+    return fmi2Error;
 }
 
 /* -- CRC-32 (IEEE 802.3 polynomial, reflected) for serialized states -------------------- */
@@ -828,15 +944,16 @@ fail:
 EXPORT void fmi2FreeInstance(fmi2Component c) {
     Shim *s = live(c);
     if (!s) return;
+    int gone = py_gone(); /* the process is ending: the slave's memory goes with it */
     for (State *st = s->states, *nx; st; st = nx) {
         nx = st->next;
-        inner.free_state(s->inner, &st->inner);
+        if (!gone) inner.free_state(s->inner, &st->inner);
         st->magic = 0;
         free(st);
     }
-    if (s->mode != M_FATAL) flush_log(s);
+    if (s->mode != M_FATAL && !gone) flush_log(s);
     pthread_mutex_lock(&g_lock);
-    inner.free_instance(s->inner);
+    if (!gone) inner.free_instance(s->inner);
     pthread_mutex_unlock(&g_lock);
     for (size_t i = 0; i < s->n_categories; i++) free(s->categories[i]);
     free(s->categories);
@@ -891,6 +1008,7 @@ EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Shim *s = live(c);
     if (!s || !allowed(s, B(M_INIT), "fmi2ExitInitializationMode")) return fmi2Error;
+    if (s->n_refused) return refused_report(s);
     begin(s);
     fmi2Status st = settle(s, inner.exit_init(s->inner));
     /* refused (e.g. a combination of parameters): the instance stays in initialization
@@ -902,6 +1020,10 @@ EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
 
 EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
     Shim *s = live(c);
+    if (s && py_gone()) { /* nothing to end: the interpreter and the process are ending */
+        s->mode = M_TERMINATED;
+        return fmi2OK;
+    }
     if (!s || !allowed(s, B(M_STEP), "fmi2Terminate")) return fmi2Error;
     begin(s);
     fmi2Status st = settle(s, inner.terminate(s->inner));
@@ -916,6 +1038,8 @@ EXPORT fmi2Status fmi2Reset(fmi2Component c) {
     fmi2Status st = settle(s, inner.reset(s->inner));
     if (st <= fmi2Warning) {
         s->mode = M_INSTANTIATED;
+        memset(s->refused, 0, sizeof s->refused);
+        s->n_refused = 0;
         flush_log(s); /* the new slave's constructor messages */
     }
     return st;
@@ -975,11 +1099,12 @@ EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], si
     if (!check_refs(s, fn, vr, nvr, value, 'R')) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
         const GpVar *v = find_var(vr[i], 'R');
-        if (!settable(s, fn, v) || !real_ok(s, fn, v, value[i])) return fmi2Error;
+        if (!settable(s, fn, v) || !real_ok(s, fn, v, value[i]))
+            return refuse(s, fn, vr, nvr, i, 'R', value);
     }
     if (!nvr) return fmi2OK;
     begin(s);
-    return settle(s, inner.set_real(s->inner, vr, nvr, value));
+    return taken(s, vr, nvr, 'R', settle(s, inner.set_real(s->inner, vr, nvr, value)));
 }
 
 EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
@@ -990,11 +1115,12 @@ EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[],
     if (!check_refs(s, fn, vr, nvr, value, 'I')) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
         const GpVar *v = find_var(vr[i], 'I');
-        if (!settable(s, fn, v) || !int_ok(s, fn, v, value[i])) return fmi2Error;
+        if (!settable(s, fn, v) || !int_ok(s, fn, v, value[i]))
+            return refuse(s, fn, vr, nvr, i, 'I', value);
     }
     if (!nvr) return fmi2OK;
     begin(s);
-    return settle(s, inner.set_int(s->inner, vr, nvr, value));
+    return taken(s, vr, nvr, 'I', settle(s, inner.set_int(s->inner, vr, nvr, value)));
 }
 
 EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
@@ -1010,7 +1136,7 @@ EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[],
     if (!norm) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) norm[i] = value[i] ? fmi2True : fmi2False;
     begin(s);
-    fmi2Status st = settle(s, inner.set_bool(s->inner, vr, nvr, norm));
+    fmi2Status st = taken(s, vr, nvr, 'B', settle(s, inner.set_bool(s->inner, vr, nvr, norm)));
     if (norm != small) free(norm);
     return st;
 }

@@ -126,6 +126,9 @@ typedef struct {
     double value[MAXV]; /* current value of every parameter and input, by index */
     int extreme;        /* an input is at the end of its range: a step may be discarded */
     char ext[MAXV];     /* which inputs are */
+    char pending[MAXV]; /* a set refused before initialization ended, not set validly since:
+                           fmi2ExitInitializationMode refuses until it is */
+    int n_pending;
 } Model;
 
 typedef struct {
@@ -204,6 +207,26 @@ static int combination_refused(const Model *m) {
     double dv = isnan(m->value[d]) ? 0 : m->value[d], fv = isnan(m->value[f]) ? 3 : m->value[f],
            sv = isnan(m->value[s]) ? 0 : m->value[s];
     return dv == 1 && fv == 3 && sv == 0;
+}
+
+/* Set every variable with a refused value pending to the value it kept (valid: it was
+ * taken or is the start value), as a master correcting the user's input would. */
+static void set_pending_again(Inst *in) {
+    for (int i = 0; i < nvars && in->m.n_pending; i++) {
+        if (!in->m.pending[i]) continue;
+        fmi2ValueReference vr = vars[i].vr;
+        if (vars[i].kind[0] == 'R') {
+            double x;
+            check(F.get_real(in->c, &vr, 1, &x), 1, "fmi2GetReal of a refused variable");
+            check(F.set_real(in->c, &vr, 1, &x), 1, "fmi2SetReal of the kept value");
+        } else {
+            int x;
+            check(F.get_int(in->c, &vr, 1, &x), 1, "fmi2GetInteger of a refused variable");
+            check(F.set_int(in->c, &vr, 1, &x), 1, "fmi2SetInteger of the kept value");
+        }
+        in->m.pending[i] = 0;
+        in->m.n_pending--;
+    }
 }
 
 /* A refused call changed nothing: same outputs (where they can be read), and a legal step
@@ -431,6 +454,13 @@ int main(int argc, char **argv) {
             }
             check(st, legal, "fmi2Set*");
             refused = !legal;
+            if (legal && m->pending[i]) {
+                m->pending[i] = 0;
+                m->n_pending--;
+            } else if (!legal && (m->mode == INST || m->mode == INIT) && !m->pending[i]) {
+                m->pending[i] = 1;
+                m->n_pending++;
+            }
             break;
         }
         case 5: case 6: case 7: case 8: case 9: { /* a step, legal or not */
@@ -492,14 +522,16 @@ int main(int argc, char **argv) {
         case 14: case 15:
             op_name = "fmi2ExitInitializationMode";
             st = F.exit_init(in.c);
-            if (m->mode == INIT && combination_refused(m)) {
-                check(st, 0, "fmi2ExitInitializationMode with a refused combination");
-                /* correct it: sliding = 1 (full) */
-                int s = index_of("sliding");
-                fmi2ValueReference vr = vars[s].vr;
-                int one = 1;
-                check(F.set_int(in.c, &vr, 1, &one), 1, "fmi2SetInteger sliding = 1");
-                m->value[s] = 1;
+            if (m->mode == INIT && (combination_refused(m) || m->n_pending)) {
+                check(st, 0, "fmi2ExitInitializationMode with a refused value or combination");
+                set_pending_again(&in);
+                if (combination_refused(m)) { /* correct it: sliding = 1 (full) */
+                    int s = index_of("sliding");
+                    fmi2ValueReference vr = vars[s].vr;
+                    int one = 1;
+                    check(F.set_int(in.c, &vr, 1, &one), 1, "fmi2SetInteger sliding = 1");
+                    m->value[s] = 1;
+                }
                 check(F.exit_init(in.c), 1, "fmi2ExitInitializationMode after the correction");
                 m->mode = STEP;
             } else {
@@ -558,6 +590,7 @@ int main(int argc, char **argv) {
                 m->mode = INIT;
             }
             if (m->mode == INIT) {
+                set_pending_again(&in);
                 if (combination_refused(m)) {
                     int s = index_of("sliding");
                     fmi2ValueReference vr = vars[s].vr;

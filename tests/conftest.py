@@ -45,5 +45,5 @@ def no_runs(monkeypatch):
         raise AssertionError("the run started before the output check")
 
     monkeypatch.setattr(Scene, "run", ran)
-    monkeypatch.setattr(gearpair.sweep.command, "run_sweep", ran)
+    monkeypatch.setattr(gearpair.sweep.command, "run_grid", ran)
     monkeypatch.setattr(gearpair.bench, "run", ran)

@@ -105,12 +105,18 @@ def test_bench_plot_format_is_checked_before_the_run(tmp_path, no_runs, capsys):
     _one_line_error(capsys, "--plot", "unknown figure format 'xyz'")
 
 
-def test_sweep_load_check_leaves_refused_values_to_the_run(no_runs, tmp_path):
-    """A value the point refuses (mu = -1) is an `invalid` record of the run, not an error of
-    the load check before it."""
+def test_sweep_load_check_leaves_points_outside_the_model_to_the_run(no_runs, tmp_path,
+                                                                     capsys):
+    """A point outside the model (a negative torque without backlash) is an `invalid` record
+    of the run, not an error of the load check before it; a value outside its parameter's
+    range (mu = -1) is refused before any point runs (issue 26), one line, exit status 2."""
     with pytest.raises(AssertionError, match="run started"):
-        main(["sweep", "--scheduler", "serial", "--out", str(tmp_path / "m"), "mu", "--",
-              "-1,0.02"])
+        main(["sweep", "--scheduler", "serial", "--out", str(tmp_path / "t"), "torque", "--",
+              "-1000,3900"])
+    capsys.readouterr()
+    assert main(["sweep", "--scheduler", "serial", "--out", str(tmp_path / "m"), "mu", "--",
+                 "-1,0.02"]) == 2
+    _one_line_error(capsys, "mu = -1.0", "out of range")
 
 
 # -- CSV files and figures -----------------------------------------------------------------

@@ -216,16 +216,19 @@ def test_cli_sweep_on_a_running_scheduler(tmp_path, capsys):
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None,
                                   scheduler_kwargs={"dashboard_address": ":0"}) as cluster:
-        rc = main(["sweep", "speed_rpm", "0,150", "--scheduler", cluster.scheduler_address,
+        # a negative torque without backlash lies outside the model: an invalid point
+        # (values starting with "-" go after "--", the options first)
+        rc = main(["sweep", "--scheduler", cluster.scheduler_address, "--speed-rpm", "150",
                    "--out", str(tmp_path / "sp"), "--transient-periods", "10",
-                   "--transient-time", "0", "--kept-periods", "10", "--retries", "0"])
+                   "--transient-time", "0", "--kept-periods", "10", "--retries", "0",
+                   "torque", "--", "-1000,3900"])
     cap = capsys.readouterr()
-    assert rc == 1  # a point failed: reported in the CSV and on stderr, not dropped
+    assert rc == 1  # a point is invalid: reported in the CSV and on stderr, not dropped
     assert "points/s" in cap.err and "INVALID point 0" in cap.err
     assert '"throughput_points_per_s"' in cap.out
     with open(tmp_path / "sp.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["status"] for r in rows] == ["invalid", "ok"]
-    assert "speed" in rows[0]["error"] and rows[0]["attempts"] == "1"
+    assert "torque" in rows[0]["error"] and rows[0]["attempts"] == "1"
     assert float(rows[1]["stick_ratio"]) > 0.05  # 150 r/min sticks (Fig. 15 range)
     assert (tmp_path / "sp.png").stat().st_size > 5000

@@ -42,18 +42,22 @@ sweep and its one-parameter files) and `plot`.
 
 from __future__ import annotations
 
-from .command import add_parser, main, parse_values, settings_from_args
-from .plot import plot_sweep, sweep_title
+from .command import add_parser, main, settings_from_args
+from .grid import Grid, parse_values
+from .plot import plot_maps, plot_sweep, sweep_title
 from .point import COLUMNS, record_periods, run_point
 from .progress import Progress
 from .result import SweepResult, read_csv, read_poincare_csv, read_result
 from .run import local_cluster, run_sweep
 from .settings import INPUTS, SweepSettings, outside_validity, sweepable
+from .store import Store, StoreError, open_dataset
+from .study import StudyRun, run_grid
 
 __all__ = [
-    "COLUMNS", "INPUTS", "Progress", "SweepResult", "SweepSettings", "add_parser",
-    "local_cluster", "main", "outside_validity", "parse_values", "plot_sweep", "read_csv",
-    "read_poincare_csv", "read_result", "record_periods", "run_point", "run_sweep",
-    "settings_from_args", "sweep_title", "sweepable",
+    "COLUMNS", "INPUTS", "Grid", "Progress", "Store", "StoreError", "StudyRun", "SweepResult",
+    "SweepSettings", "add_parser", "local_cluster", "main", "open_dataset", "outside_validity",
+    "parse_values", "plot_maps", "plot_sweep", "read_csv", "read_poincare_csv", "read_result",
+    "record_periods", "run_grid", "run_point", "run_sweep", "settings_from_args",
+    "sweep_title", "sweepable",
 ]
 

@@ -72,3 +72,75 @@ def plot_sweep(result: SweepResult, path: str | Path, title: str | None = None) 
     return Path(path)
 
 
+
+
+def _slice_label(point: dict[str, float]) -> str:
+    return "_".join(f"{k}={v:g}" for k, v in point.items())
+
+
+def plot_maps(store: str | Path, prefix: str | Path,
+              slices: dict[str, float] | None = None) -> list[Path]:
+    """Maps of the stick ratio (and of the contact-loss ratio where it is not zero
+    everywhere) over the first two swept parameters of a stored grid.
+
+    Two parameters: one figure, ``PREFIX_map.png``. More: one figure per combination of
+    the other parameters' values, ``PREFIX_map_NAME=VALUE....png``; ``slices``
+    (``{name: value}``, the nearest grid value) keeps only the combinations with those
+    values. Points not ok (failed, invalid, not run) are left blank. A list of points is
+    drawn as a scatter over its first two parameters.
+    """
+    import itertools
+
+    from matplotlib.figure import Figure
+
+    from .store import STATUS, open_dataset
+
+    ds = open_dataset(store).load()
+    grid_names = list(ds.attrs["grid"]["names"])
+    ok = (ds["done"] == 1) & (ds["status"] == STATUS.index("ok"))
+    prefix = Path(prefix)
+    out: list[Path] = []
+    x, y = grid_names[:2]
+    if ds.attrs["grid"]["kind"] == "points":
+        jobs = [({}, ds, f"{prefix}_map.png")]
+    else:
+        others = grid_names[2:]
+        chosen = []
+        for n in others:
+            vals = ds[n].values
+            if slices and n in slices:
+                vals = [vals[int(np.argmin(np.abs(vals - slices[n])))]]
+            chosen.append([float(v) for v in vals])
+        jobs = []
+        for combo in itertools.product(*chosen):
+            sel = dict(zip(others, combo, strict=True))
+            tag = f"_{_slice_label(sel)}" if sel else ""
+            jobs.append((sel, ds.sel(sel), f"{prefix}_map{tag}.png"))
+    for sel, sub, path in jobs:
+        good = ok.sel(sel) if sel else ok
+        rk = sub["stick_ratio"].where(good)
+        rl = sub["contact_loss_ratio"].where(good)
+        panels = [("stick ratio $r_k$ (Eq. 26)", rk)]
+        if bool((rl.fillna(0) != 0).any()):
+            panels.append(("contact-loss ratio $r_l$ (Eq. 27)", rl))
+        fig = Figure(figsize=(5.2 * len(panels), 4.2), layout="constrained")
+        axes = fig.subplots(1, len(panels), squeeze=False)[0]
+        for ax, (label, da) in zip(axes, panels, strict=True):
+            if ds.attrs["grid"]["kind"] == "points":
+                m = ax.scatter(sub[x].values, sub[y].values, c=da.values, s=30,
+                               cmap="viridis", vmin=0.0)
+            else:
+                m = ax.pcolormesh(sub[y].values, sub[x].values, da.transpose(x, y).values,
+                                  shading="nearest", cmap="viridis", vmin=0.0)
+                ax.set_xlabel(_axis_label(y))
+                ax.set_ylabel(_axis_label(x))
+            if ds.attrs["grid"]["kind"] == "points":
+                ax.set_xlabel(_axis_label(x))
+                ax.set_ylabel(_axis_label(y))
+            fig.colorbar(m, ax=ax, label=label)
+        held = ", ".join(f"{k} = {v:g}" for k, v in sel.items())
+        fig.suptitle(f"{ds.attrs.get('title', 'sweep')}" + (f"\nat {held}" if held else "")
+                     + "; blank: failed, invalid or not run", fontsize=9)
+        fig.savefig(path, dpi=110)
+        out.append(Path(path))
+    return out

@@ -99,9 +99,13 @@ def record_periods(params: GearParams, effects: Effects, torque: float, speed: f
     return rec
 
 
-def run_point(index: int, name: str, value: float, settings: SweepSettings,
-              rtol: float | None = None, attempt: int = 1) -> dict[str, Any]:
+def run_point(index: int, name: str | tuple[str, ...], value: float | tuple[float, ...],
+              settings: SweepSettings, rtol: float | None = None,
+              attempt: int = 1) -> dict[str, Any]:
     """Run one sweep point; never raises (an error becomes ``status = failed``).
+
+    ``name = value`` is the swept parameter and its value, or for a point of a grid the
+    tuples of the names and the values.
 
     Records the kept periods with `record_periods`; the Poincare sample of a period is the
     sample nearest ``settings.section_phase`` (its phase is in the ``section_phase``
@@ -117,7 +121,9 @@ def run_point(index: int, name: str, value: float, settings: SweepSettings,
     rtol = settings.rtol if rtol is None else float(rtol)
     rec["rtol"] = rtol
     try:
-        params, effects, torque, speed = settings.inputs(name, value)
+        point = dict(zip(name, value, strict=True)) if isinstance(name, tuple) \
+            else {name: value}
+        params, effects, torque, speed = settings.inputs_at(point)
         tm = analysis.mesh_period(params.z1, speed)  # refuses a standstill point
         reason = outside_validity(effects, torque)
     except ValueError as exc:  # the value is refused: a tighter rtol cannot change that

@@ -5,13 +5,34 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
+from dataclasses import dataclass
 
 from ..params import RTOL_MIN
 from .point import _blank, _warm, run_point
 from .progress import Progress
 from .result import SweepResult
 from .settings import SweepSettings, sweepable
+
+
+@dataclass
+class Cost:
+    """What a run of points cost.
+
+    Attributes
+    ----------
+    elapsed_s : wall time of the computation (submission to last result), s
+    startup_s : wall time to start or reach the cluster and warm the compiled code, s
+    workers : worker threads used; scheduler : ``local``, ``serial`` or an address
+    retried : reruns of failed points
+    """
+
+    elapsed_s: float = 0.0
+    startup_s: float = 0.0
+    workers: int = 1
+    scheduler: str = "serial"
+    retried: int = 0
 
 
 def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
@@ -31,6 +52,9 @@ def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
     workers : local worker processes (default: the CPU count)
     retries : how many times a failed point is run again (each with ``rtol / 10``)
     progress : draw a progress bar on ``stream`` (stderr by default)
+
+    A value the parameter's range refuses is an ``invalid`` record here (not an error):
+    `gearpair.sweep.grids.run_grid` refuses it before any point runs.
     """
     settings = settings or SweepSettings()
     if name not in sweepable():
@@ -41,14 +65,33 @@ def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
     if retries < 0:
         raise ValueError(f"retries = {retries!r} must be >= 0")
     bar = Progress(len(values), f"sweep {name}", stream, progress)
+    records: dict[int, dict] = {}
+    cost = execute([(i, name, v) for i, v in enumerate(values)], settings,
+                   lambda rec: records.__setitem__(rec["index"], rec), scheduler=scheduler,
+                   workers=workers, retries=retries, bar=bar)
+    recs = [records[i] for i in range(len(values))]
+    return SweepResult(name, values, settings, recs, cost.elapsed_s, cost.startup_s,
+                       cost.workers, cost.scheduler, cost.retried)
+
+
+def execute(tasks: list[tuple], settings: SweepSettings, sink: Callable[[dict], None], *,
+            scheduler: str | None = None, workers: int | None = None, retries: int = 1,
+            bar: Progress | None = None) -> Cost:
+    """Run the points ``tasks`` (``(index, name, value)`` as `run_point` takes them) and hand
+    each final record to ``sink`` as soon as it is in (a failed point after its retries).
+
+    ``scheduler``: ``"serial"`` (this process), None (a new local cluster of ``workers``
+    processes) or a scheduler's address. Returns the `Cost`.
+    """
+    bar = bar or Progress(len(tasks), "sweep", enabled=False)
     t0 = time.perf_counter()
     if scheduler == "serial":
         _warm()
         startup = time.perf_counter() - t0
         t1 = time.perf_counter()
         bar.start()
-        records, retried = [], 0
-        for i, v in enumerate(values):
+        retried = 0
+        for i, name, v in tasks:
             rec = run_point(i, name, v, settings)
             for a in range(2, retries + 2):
                 if rec["status"] != "failed":  # ok, or invalid: a tighter rtol cannot help
@@ -56,11 +99,10 @@ def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
                 bar.update(False, retrying=True)
                 retried += 1
                 rec = run_point(i, name, v, settings, _tighter(settings.rtol, a), a)
-            records.append(rec)
+            sink(rec)
             bar.update(rec["status"] != "failed")
-        return SweepResult(name, values, settings, records, time.perf_counter() - t1, startup,
-                           1, "serial", retried)
-    return _run_dask(name, values, settings, scheduler, workers, retries, bar, t0)
+        return Cost(time.perf_counter() - t1, startup, 1, "serial", retried)
+    return _run_dask(tasks, settings, sink, scheduler, workers, retries, bar, t0)
 
 
 def _tighter(rtol: float, attempt: int) -> float:
@@ -95,7 +137,7 @@ def local_cluster(workers: int | None = None):
         cluster.close()
 
 
-def _run_dask(name, values, settings, scheduler, workers, retries, bar, t0) -> SweepResult:
+def _run_dask(tasks, settings, sink, scheduler, workers, retries, bar, t0) -> Cost:
     from dask.distributed import Client, as_completed
 
     cluster = None
@@ -117,19 +159,20 @@ def _run_dask(name, values, settings, scheduler, workers, retries, bar, t0) -> S
         t1 = time.perf_counter()
         bar.start()
         futs, first = {}, []
-        for i, v in enumerate(values):
+        for i, name, v in tasks:
             f = client.submit(run_point, i, name, v, settings, None, 1, pure=False)
-            futs[f.key] = (i, v, 1)
+            futs[f.key] = (i, name, v, 1)
             first.append(f)
         ac = as_completed(first)
         del first
-        records: dict[int, dict] = {}
         retried = 0
+        # A worker that dies takes its running tasks with it; the scheduler runs them again
+        # on another worker (each result still arrives here once, its future's).
         for fut in ac:
-            i, v, attempt = futs.pop(fut.key)
+            i, name, v, attempt = futs.pop(fut.key)
             try:
                 rec = fut.result()
-            except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled task
+            except Exception as exc:  # noqa: BLE001 - a task that killed its workers
                 rec = _blank(i, name, v, settings)
                 rec["attempts"] = attempt
                 rec["error"] = f"{type(exc).__name__}: {exc}"
@@ -139,18 +182,17 @@ def _run_dask(name, values, settings, scheduler, workers, retries, bar, t0) -> S
                 bar.update(False, retrying=True)
                 g = client.submit(run_point, i, name, v, settings,
                                   _tighter(settings.rtol, attempt + 1), attempt + 1, pure=False)
-                futs[g.key] = (i, v, attempt + 1)
+                futs[g.key] = (i, name, v, attempt + 1)
                 ac.add(g)
                 continue
-            records[i] = rec
+            sink(rec)
             bar.update(rec["status"] != "failed")
         elapsed = time.perf_counter() - t1
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    recs = [records[i] for i in range(len(values))]
-    return SweepResult(name, values, settings, recs, elapsed, startup, nthreads, label, retried)
+    return Cost(elapsed, startup, nthreads, label, retried)
 
 
 def _accepts_n_workers(client) -> bool:

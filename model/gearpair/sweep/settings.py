@@ -4,11 +4,12 @@ the model's validity."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from ..effects import Effects, StiffnessSpec
-from ..params import RPM, GearParams
+from ..params import RPM, GearParams, OperatingPoint, check_range
 
 # Inputs that are not GearParams fields, with their units.
 INPUTS = {"speed_rpm": "r/min", "torque": "N.m"}
@@ -85,20 +86,39 @@ class SweepSettings:
     def inputs(self, name: str, value: float) -> tuple[GearParams, Effects, float, float]:
         """Gear data, effects, torque (N.m) and speed (rad/s) of the point ``name = value``
         (raises ``ValueError`` for an unknown name or an invalid value)."""
-        if name not in sweepable():
-            raise ValueError(f"cannot sweep {name!r}; choose one of " + ", ".join(sweepable()))
+        return self.inputs_at({name: value})
+
+    def inputs_at(self, point: Mapping[str, float]) -> tuple[GearParams, Effects, float, float]:
+        """`inputs` of a point of several parameters, ``{name: value}``."""
         over = dict(self.params)
         torque, rpm = self.torque, self.speed_rpm
-        if name == "torque":
-            torque = float(value)
-        elif name == "speed_rpm":
-            rpm = float(value)
-        else:
-            over[name] = value
+        for name, value in point.items():
+            if name not in sweepable():
+                raise ValueError(f"cannot sweep {name!r}; choose one of "
+                                 + ", ".join(sweepable()))
+            if name == "torque":
+                torque = float(value)
+            elif name == "speed_rpm":
+                rpm = float(value)
+            else:
+                over[name] = value
         params = GearParams(**over)
         effects = Effects(stiffness=StiffnessSpec(kind=self.stiffness), separation=self.separation,
                           friction=self.friction, sliding=self.sliding, stick_tie=self.stick_tie)
         return params, effects, torque, rpm * RPM
+
+    def check_point(self, point: Mapping[str, float]) -> None:
+        """Raise ``ValueError`` naming the parameter and its range when a value of the point
+        is outside its range (a zero or negative speed included: it has no mesh period)."""
+        params, _, torque, speed = self.inputs_at(point)
+        shown = {"torque": "torque", "speed": "speed_rpm"}
+        for f in fields(OperatingPoint):
+            x = torque if f.name == "torque" else speed
+            meta = dict(f.metadata)
+            if f.name == "speed":  # the sweep's unit (r/min); zero has no mesh period
+                meta.update(unit="r/min", min=0.0, lo_open=True, max=meta["max"] / RPM)
+                x /= RPM
+            check_range(shown[f.name], x, meta)
 
     def periods(self, mesh_period: float) -> tuple[int, int]:
         """Discarded and kept mesh periods for a mesh period (s), with the cap applied."""

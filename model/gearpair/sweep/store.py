@@ -1,0 +1,377 @@
+"""The sweep's store: a Zarr (v3) folder that xarray opens as a labelled N-D dataset, written
+point by point as the points finish.
+
+Layout (``xarray.open_zarr(path)``): one dimension per swept parameter (a factorial grid) or
+one dimension ``point`` (a list of points, the parameters as coordinates along it); per point
+the variables `NUMERIC` (ratios, mesh-force and DTE statistics, period, cost ...), ``status``
+(0 not run, 1 ok, 2 failed, 3 invalid; CF ``flag_values``/``flag_meanings``), ``error``,
+``worker``, and ``done`` (1 once the point's record is complete); the Poincare section as
+``poincare`` over an extra dimension ``section`` padded with NaN, its length in
+``poincare_count`` (CF's "incomplete multidimensional array" form of ragged data). The
+group's attributes hold the layout version, the grid, the settings and the engine version.
+
+Crash safety: only this process (the client) writes, one point at a time. A chunk holds up
+to `CHUNK_POINTS` neighbouring points (one file per point would make a 1,000-point store
+37,000 files); writing a point makes zarr read its chunk, merge the point in and write the
+whole chunk again, and zarr's `LocalStore` (zarr 3.1) writes every file to a temporary name
+and renames it over the old one (`os.replace`, atomic on POSIX; checked by a test): a chunk
+file is the old one or the new one, never a mix. ``done`` is written after the point's other
+variables, so a point killed between the two reads as not done and runs again. The store's
+metadata is written once, into a temporary folder renamed into place. A killed client
+therefore loses only the points in flight, and the store always opens.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import json
+import math
+import os
+import shutil
+import time
+from dataclasses import asdict, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .grid import Grid
+from .point import COLUMNS
+from .settings import SweepSettings, sweepable
+
+CHUNK_POINTS = 64  # most points in one chunk of a variable
+FORMAT = 1  # layout version of the store; a different one is refused
+STATUS = ("not_run", "ok", "failed", "invalid")
+# per-point record fields kept as text or as the settings (in the attributes), not numbers
+_TEXT = ("error", "worker")
+_NOT_NUMERIC = ("index", "param", "value", "status", "friction", "stick_tie", "sliding",
+                *_TEXT)
+NUMERIC = tuple(c for c in COLUMNS if c not in _NOT_NUMERIC)
+_INT = ("attempts", "transient_periods", "kept_periods", "poincare_period",
+        "poincare_distinct")
+# units of the variables, for the attributes (CF-style strings)
+UNITS = {"rtol": "1", "speed_rpm": "r/min", "torque_nm": "N.m", "mu": "1",
+         "mesh_period_s": "s", "t_end_s": "s", "wall_s": "s", "cpu_s": "s",
+         "mesh_force_min_kn": "kN", "mesh_force_mean_kn": "kN", "mesh_force_max_kn": "kN",
+         "dte_mean_um_sampled": "um", "dte_min_um_sampled": "um", "dte_max_um_sampled": "um",
+         "half_order_um": "um", "mesh_order_um": "um", "adjacent_diff": "um",
+         "alternate_diff": "um"}
+
+# the modules whose code decides a point's numbers (beside the fast engine's own files)
+_PHYSICS = ("params.py", "effects.py", "geometry.py", "stiffness.py", "potential_energy.py",
+            "equations.py", "switching.py", "analysis.py", "sweep/point.py",
+            "sweep/settings.py")
+
+
+def engine_version() -> str:
+    """The package version and a digest of the code that decides a point's results: the
+    fast engine (`gearpair.jitcache.engine_files`, numba's version) and the physics and
+    analysis modules. A store written by another is refused on resume."""
+    from .. import __version__, jitcache
+
+    here = Path(__file__).resolve().parents[1]
+    h = hashlib.sha1(str(jitcache.KEY).encode())
+    for name in _PHYSICS:
+        try:
+            h.update((here / name).read_bytes())
+        except OSError:
+            h.update(name.encode())
+    return f"{__version__}+{h.hexdigest()[:12]}"
+
+
+def _settings_json(settings: SweepSettings) -> dict[str, Any]:
+    d = asdict(settings)
+    d["params"] = [list(p) for p in settings.params]
+    return d
+
+
+def _settings_from_json(d: dict[str, Any]) -> SweepSettings:
+    d = dict(d)
+    d["params"] = tuple(tuple(p) for p in d.get("params", ()))
+    return SweepSettings(**d)
+
+
+def kmax(settings: SweepSettings) -> int:
+    """Most Poincare samples a point can have (the kept periods, made even)."""
+    return settings.kept_periods + settings.kept_periods % 2
+
+
+class StoreError(ValueError):
+    """A store that cannot be used as asked (one line, for the command's exit status 2)."""
+
+
+class Store:
+    """An open sweep store (see the module docstring): create, check and resume, write points.
+
+    Use `Store.open_or_create`; the points are written with `write`.
+    """
+
+    def __init__(self, path: Path, group, grid: Grid, settings: SweepSettings) -> None:
+        self.path, self.group, self.grid, self.settings = path, group, grid, settings
+        # a swept name (speed_rpm, mu) is a coordinate, not a variable
+        self.numeric = tuple(n for n in NUMERIC if n not in grid.names)
+        self._arrays = {name: group[name] for name in (*self.numeric, "status", *_TEXT,
+                                                        "poincare", "poincare_count", "done")}
+
+    # -- creation and checks ------------------------------------------------------------
+    @classmethod
+    def open_or_create(cls, path: str | Path, grid: Grid, settings: SweepSettings, *,
+                       new: bool = False) -> Store:
+        """Open the store at ``path`` for this sweep, or create it.
+
+        An existing store must hold the same grid, settings and engine version (else
+        `StoreError` naming the difference); ``new`` replaces it by an empty one instead
+        (the user asked). A path that is not a store, a store of another layout version, or
+        a folder that cannot be written: `StoreError`.
+        """
+        path = Path(path)
+        if path.exists() and not new:
+            store = cls.open(path, mode="r+")
+            diff = store.differences(grid, settings)
+            if diff:
+                raise StoreError(f"store {path} holds another sweep: {'; '.join(diff)} "
+                                 "(--new-store replaces it, or give another --store)")
+            return store
+        return cls._create(path, grid, settings, replace_old=path.exists())
+
+    @classmethod
+    def open(cls, path: str | Path, mode: str = "r") -> Store:
+        """An existing store (``mode`` ``"r"`` or ``"r+"``); `StoreError` when it is none."""
+        import zarr
+
+        path = Path(path)
+        meta = path / "zarr.json"
+        if not path.is_dir() or not meta.is_file():
+            what = "is a file" if path.is_file() else "is not a gearpair sweep store"
+            raise StoreError(f"store {path} {what} (no zarr.json); give a new path or a "
+                             "store that a sweep wrote")
+        try:
+            attrs = json.loads(meta.read_text()).get("attributes", {})
+        except (OSError, ValueError) as exc:
+            raise StoreError(f"store {path}: cannot read zarr.json ({exc})") from None
+        fmt = attrs.get("gearpair_store")
+        if fmt != FORMAT:
+            raise StoreError(f"store {path} was written by an incompatible version (store "
+                             f"format {fmt}; this gearpair reads format {FORMAT})")
+        if mode == "r+" and not os.access(path, os.W_OK):
+            raise StoreError(f"store {path} is not writable")
+        group = zarr.open_group(path, mode=mode, zarr_format=3)
+        grid = Grid.from_json(attrs["grid"])
+        settings = _settings_from_json(attrs["settings"])
+        return cls(path, group, grid, settings)
+
+    def differences(self, grid: Grid, settings: SweepSettings) -> list[str]:
+        """What differs between this store and the sweep ``grid`` at ``settings``: the grid,
+        each setting, the engine version (empty when the store can be resumed)."""
+        out = []
+        if grid != self.grid:
+            out.append(f"grid {self.grid.describe()} in the store, {grid.describe()} now"
+                       if grid.describe() != self.grid.describe()
+                       else f"grid values of {', '.join(grid.names)} differ")
+        for f in fields(SweepSettings):
+            a, b = getattr(self.settings, f.name), getattr(settings, f.name)
+            if a != b:
+                out.append(f"{f.name} = {a!r} in the store, {b!r} now")
+        have = self.group.attrs.get("engine_version")
+        now = engine_version()
+        if have != now:
+            out.append(f"engine version {have} in the store, {now} now")
+        return out
+
+    @classmethod
+    def _create(cls, path: Path, grid: Grid, settings: SweepSettings,
+                replace_old: bool) -> Store:
+        import zarr
+
+        path = path.absolute()
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise StoreError(f"store {path}: cannot create its folder {path.parent} "
+                             f"({exc.strerror or exc})") from None
+        if replace_old and not (path / "zarr.json").is_file():
+            # only a store is ever replaced, never another folder or file
+            cls.open(path)
+        tmp = path.parent / f".{path.name}.creating-{os.getpid()}"
+        try:
+            if tmp.exists():
+                shutil.rmtree(tmp)
+            group = zarr.open_group(tmp, mode="w-", zarr_format=3)
+        except OSError as exc:
+            raise StoreError(f"store {path}: cannot write in {path.parent} "
+                             f"({exc.strerror or exc})") from None
+        try:
+            _layout(group, grid, settings)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        if replace_old:  # the old one goes only once the new one is complete
+            trash = path.parent / f".{path.name}.replaced-{os.getpid()}"
+            os.rename(path, trash)
+            os.rename(tmp, path)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            os.rename(tmp, path)
+        return cls.open(path, mode="r+")
+
+    # -- state ------------------------------------------------------------------------------
+    def done(self) -> np.ndarray:
+        """1 where a point's record is complete, over the grid's shape."""
+        return np.asarray(self._arrays["done"][...])
+
+    def status(self) -> np.ndarray:
+        return np.asarray(self._arrays["status"][...])
+
+    def todo(self, rerun_failed: bool = False) -> list[int]:
+        """Indexes of the points to run: not done, and with ``rerun_failed`` also the failed
+        and invalid ones."""
+        done = self.done().ravel() == 1
+        if rerun_failed:
+            done &= self.status().ravel() == STATUS.index("ok")
+        return [int(i) for i in np.flatnonzero(~done)]
+
+    def counts(self) -> dict[str, int]:
+        """Points done (ok, failed, invalid) and not run."""
+        done = self.done().ravel() == 1
+        st = self.status().ravel()
+        out = {s: int(np.sum(done & (st == k))) for k, s in enumerate(STATUS) if k}
+        out["not_run"] = int(np.sum(~done))
+        return out
+
+    # -- writing ----------------------------------------------------------------------------
+    def write(self, rec: dict[str, Any]) -> None:
+        """Store one finished point (a `run_point` record), ``done`` last."""
+        from zarr.core.sync import sync
+
+        nd = tuple(int(k) for k in np.unravel_index(int(rec["index"]), self.grid.shape))
+        a = self._arrays
+        values: dict[str, Any] = {}
+        for name in self.numeric:
+            x = rec.get(name, math.nan)
+            if name in _INT:
+                x = -1 if x is None or (isinstance(x, float) and math.isnan(x)) else int(x)
+            values[name] = x
+        values["status"] = STATUS.index(rec["status"])
+        values["error"] = str(rec.get("error", ""))
+        values["worker"] = str(rec.get("worker", ""))
+        sec = np.full(a["poincare"].shape[-1], np.nan)
+        p = np.asarray(rec.get("poincare", []), dtype=float)[: sec.size]
+        sec[: p.size] = p
+        values["poincare"] = sec
+        values["poincare_count"] = p.size
+
+        async def put() -> None:
+            # the variables' chunk files at once (zarr's event loop): about half the time of
+            # one after the other
+            await asyncio.gather(*(a[k]._async_array.setitem(nd, v) for k, v in values.items()))
+
+        sync(put())
+        a["done"][nd] = 1  # last: the record is complete
+
+    def add_run(self, info: dict[str, Any]) -> None:
+        """Append a run's cost (wall time, points, workers ...) to the store's ``runs``."""
+        runs = list(self.group.attrs.get("runs", []))
+        runs.append(info)
+        self.group.attrs["runs"] = runs
+
+    # -- reading ----------------------------------------------------------------------------
+    def records(self) -> list[dict[str, Any]]:
+        """The stored points as `run_point` records (index order; points not done have
+        ``status = not_run``)."""
+        a = {k: np.asarray(v[...]).ravel() for k, v in self._arrays.items()
+             if k != "poincare"}
+        pc = np.asarray(self._arrays["poincare"][...]).reshape(self.grid.size, -1)
+        s = self.settings
+        out = []
+        for i, point in self.grid.points():
+            rec: dict[str, Any] = {
+                "index": i, "param": ",".join(self.grid.names),
+                "value": point[self.grid.names[0]] if len(point) == 1 else tuple(point.values()),
+                "status": STATUS[int(a["status"][i])] if a["done"][i] else "not_run",
+                "friction": s.friction, "stick_tie": s.stick_tie, "sliding": s.sliding,
+                **{n: point[n] for n in NUMERIC if n in point}}
+            for name in self.numeric:
+                x = a[name][i]
+                rec[name] = (int(x) if x >= 0 else math.nan) if name in _INT else float(x)
+            for name in _TEXT:
+                rec[name] = str(a[name][i])
+            rec["poincare"] = [float(x) for x in pc[i, : int(a["poincare_count"][i])]]
+            out.append(rec)
+        return out
+
+
+def chunk_shape(shape: tuple[int, ...], most: int = CHUNK_POINTS) -> tuple[int, ...]:
+    """Chunks of at most ``most`` neighbouring points: whole trailing dimensions first."""
+    out = [1] * len(shape)
+    room = most
+    for d in range(len(shape) - 1, -1, -1):
+        out[d] = max(1, min(shape[d], room))
+        room //= out[d]
+        if room <= 1:
+            break
+    return tuple(out)
+
+
+def _layout(group, grid: Grid, settings: SweepSettings) -> None:
+    """Create every array of the store (fill values only; one chunk per point)."""
+    from .. import __version__
+
+    shape, dims = grid.shape, grid.dims
+    one = chunk_shape(shape)
+    units = sweepable()
+    if grid.kind == "product":
+        for name, vals in zip(grid.names, grid.values, strict=True):
+            c = group.create_array(name, shape=(len(vals),), dtype="float64",
+                                   dimension_names=(name,),
+                                   attributes={"units": units.get(name, "")})
+            c[...] = np.asarray(vals)
+        coords = ""
+    else:
+        for name, vals in zip(grid.names, grid.values, strict=True):
+            c = group.create_array(name, shape=shape, dtype="float64", dimension_names=dims,
+                                   attributes={"units": units.get(name, "")})
+            c[...] = np.asarray(vals)
+        idx = group.create_array("point", shape=shape, dtype="int64", dimension_names=dims)
+        idx[...] = np.arange(grid.size)
+        coords = " ".join(grid.names)
+
+    def arr(name, dtype, fill, extra=(), **attrs):
+        if coords:
+            attrs["coordinates"] = coords
+        return group.create_array(name, shape=shape + tuple(n for _, n in extra),
+                                  chunks=one + tuple(n for _, n in extra), dtype=dtype,
+                                  fill_value=fill,
+                                  dimension_names=dims + tuple(d for d, _ in extra),
+                                  attributes=attrs)
+
+    for name in NUMERIC:
+        if name in grid.names:
+            continue
+        if name in _INT:
+            arr(name, "int32", -1, long_name=name, missing="-1")
+        else:
+            arr(name, "float64", math.nan, units=UNITS.get(name, "1"), long_name=name)
+    arr("status", "int8", 0, flag_values=list(range(len(STATUS))),
+        flag_meanings=" ".join(STATUS))
+    for name in _TEXT:
+        arr(name, str, "")
+    arr("poincare", "float64", math.nan, extra=(("section", kmax(settings)),), units="m",
+        long_name="DTE at the Poincare section, one sample per kept mesh period (NaN pads)")
+    arr("poincare_count", "int32", 0, long_name="number of Poincare samples")
+    arr("done", "int8", 0, long_name="1 once the point's record is complete")
+    group.attrs.update({
+        "gearpair_store": FORMAT, "gearpair_version": __version__,
+        "engine_version": engine_version(), "grid": grid.to_json(),
+        "settings": _settings_json(settings), "created": time.strftime(
+            "%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "title": f"gearpair sweep: {grid.describe()}", "runs": []})
+
+
+def open_dataset(path: str | Path):
+    """The store at ``path`` as an ``xarray.Dataset`` (lazy; `StoreError` if it is no sweep
+    store of this layout version)."""
+    import xarray as xr
+
+    Store.open(path)  # the checks, one line each
+    return xr.open_zarr(path, consolidated=False, zarr_format=3, mask_and_scale=False)

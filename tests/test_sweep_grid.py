@@ -1,0 +1,310 @@
+"""Parameter grids stored as they finish (issue 26): grids and point lists, the Zarr store
+read back with xarray, resuming, refusing a store of another sweep, and a client killed at
+random moments."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from gearpair.cli import main
+from gearpair.sweep import Grid, SweepSettings, open_dataset, run_grid, run_point
+from gearpair.sweep.store import NUMERIC, STATUS, Store, chunk_shape
+
+xr = pytest.importorskip("xarray")
+
+QUICK = SweepSettings(transient_periods=10, transient_time=0.0, kept_periods=10, max_time=0.5,
+                      min_periods=4)
+QUICK_ARGS = ["--transient-periods", "10", "--transient-time", "0", "--kept-periods", "10",
+              "--max-time", "0.5"]
+# the physics of a point (not its cost or where it ran): equal bit for bit between runs
+PHYSICS = [n for n in NUMERIC if n not in ("wall_s", "cpu_s", "attempts", "rtol")]
+
+
+# -- grids ---------------------------------------------------------------------------------------
+def test_grid_is_the_full_factorial_in_c_order():
+    g = Grid.parse(["speed_rpm=5:600:120", "torque=1000:4000:7", "mu=0.01,0.02,0.03"])
+    assert g.shape == (120, 7, 3) and g.size == 2520 and g.dims == g.names
+    assert g.point(0) == {"speed_rpm": 5.0, "torque": 1000.0, "mu": 0.01}
+    assert g.point(1) == {"speed_rpm": 5.0, "torque": 1000.0, "mu": 0.02}  # last fastest
+    assert g.point(2519) == {"speed_rpm": 600.0, "torque": 4000.0, "mu": 0.03}
+    assert [i for i, _ in g.points()] == list(range(2520))
+    assert Grid.from_json(json.loads(json.dumps(g.to_json()))) == g
+
+
+def test_point_list_from_csv(tmp_path):
+    f = tmp_path / "pts.csv"
+    f.write_text("speed_rpm,mu\n100,0.01\n150,0.03\n\n200,0\n")
+    g = Grid.from_csv(f)
+    assert g.kind == "points" and g.shape == (3,) and g.dims == ("point",)
+    assert g.point(1) == {"speed_rpm": 150.0, "mu": 0.03}
+    f.write_text("speed_rpm,mu\n100\n")
+    with pytest.raises(ValueError, match="line 2 has 1 values for 2 columns"):
+        Grid.from_csv(f)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["spead_rpm=1,2"], ["cannot sweep 'spead_rpm'", "did you mean speed_rpm"]),
+    (["speed_rpm=1,2", "speed_rpm=3"], ["speed_rpm is given twice"]),
+    (["speed_rpm=", "mu=0.1"], ["empty grid: no values for speed_rpm"]),
+    ([], ["empty grid"]),
+    (["speed_rpm=0,100"], ["speed_rpm = 0.0 is out of range", "(0, "]),
+    (["mu=0.01,2"], ["mu = 2.0 is out of range", "[0, 1]"]),
+    (["torque=1e7", "mu=0.01"], ["torque = 10000000.0 is out of range"]),
+    (["speed_rpm=100", "mu"], ["'mu': in a grid every parameter is NAME=VALUES"]),
+])
+def test_bad_grid_is_one_line_and_exit_2_before_any_point(argv, words, tmp_path, capsys,
+                                                          no_runs):
+    assert main(["sweep", *argv, "--scheduler", "serial", "--out", str(tmp_path / "g")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in err, err
+    assert not (tmp_path / "g.zarr").exists()  # nothing written either
+
+
+def test_unwritable_or_foreign_store_is_refused(tmp_path, capsys, no_runs):
+    other = tmp_path / "data"
+    other.mkdir()
+    (other / "keep.txt").write_text("mine")
+    for extra in ([], ["--new-store"]):  # never replaced, even when a new store is asked for
+        assert main(["sweep", "mu=0.01,0.02", "--scheduler", "serial", "--store", str(other),
+                     "--out", str(tmp_path / "g"), *extra]) == 2
+        assert "is not a gearpair sweep store" in capsys.readouterr().err
+    assert (other / "keep.txt").read_text() == "mine"
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        if os.access(ro, os.W_OK):
+            pytest.skip("running as a user who writes anywhere")
+        assert main(["sweep", "mu=0.01", "--scheduler", "serial", "--store",
+                     str(ro / "s.zarr"), "--out", str(tmp_path / "g")]) == 2
+        assert "cannot write" in capsys.readouterr().err
+    finally:
+        ro.chmod(0o700)
+
+
+# -- the store -----------------------------------------------------------------------------------
+def test_zarr_local_store_writes_through_a_temporary_file_and_rename(tmp_path, monkeypatch):
+    """The store's crash safety rests on this (zarr 3.1's `LocalStore`): a chunk file is
+    replaced whole by a rename, never rewritten in place."""
+    import zarr
+
+    a = zarr.create_array(tmp_path / "a.zarr", shape=(4,), chunks=(4,), dtype="float64")
+    a[...] = 1.0
+    seen = []
+    real = os.replace
+
+    def spy(src, dst):
+        seen.append((str(src), str(dst)))
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", spy)
+    a[1] = 2.0
+    assert seen and all(s.endswith(".partial") and d.endswith("/c/0") for s, d in seen)
+    assert list(a[...]) == [1.0, 2.0, 1.0, 1.0]
+
+
+def test_chunks_hold_neighbouring_points():
+    assert chunk_shape((120, 7, 3)) == (3, 7, 3)
+    assert chunk_shape((1000,)) == (64,) and chunk_shape((5, 100)) == (1, 64)
+
+
+def test_grid_store_is_a_labelled_dataset_equal_to_the_points(tmp_path):
+    g = Grid.parse(["speed_rpm=100,150", "torque=-500,3900", "mu=0,0.03"])
+    run = run_grid(g, QUICK, tmp_path / "s.zarr", scheduler="serial", progress=False)
+    assert run.ran == 8 and run.after == {"ok": 4, "failed": 0, "invalid": 4, "not_run": 0}
+    ds = open_dataset(tmp_path / "s.zarr").load()
+    assert ds["stick_ratio"].dims == ("speed_rpm", "torque", "mu")
+    assert list(ds["torque"].values) == [-500.0, 3900.0]
+    assert ds["poincare"].dims == ("speed_rpm", "torque", "mu", "section")
+    assert ds["status"].attrs["flag_meanings"].split() == list(STATUS)
+    assert (ds["done"] == 1).all()
+    pt = ds.sel(speed_rpm=150.0, torque=3900.0, mu=0.03)
+    rec = run_point(0, ("speed_rpm", "torque", "mu"), (150.0, 3900.0, 0.03), QUICK)
+    for name in PHYSICS:
+        if name not in g.names:
+            assert float(pt[name]) == pytest.approx(rec[name], rel=0, abs=0, nan_ok=True), name
+    n = int(pt["poincare_count"])
+    assert n == len(rec["poincare"]) == 10
+    assert list(pt["poincare"].values[:n]) == rec["poincare"]
+    bad = ds.sel(speed_rpm=100.0, torque=-500.0, mu=0.0)
+    assert STATUS[int(bad["status"])] == "invalid" and "torque" in str(bad["error"].values)
+    # more stick with more friction, none without
+    assert float(ds["stick_ratio"].sel(speed_rpm=100, torque=3900, mu=0)) == 0.0
+    assert float(ds["stick_ratio"].sel(speed_rpm=100, torque=3900, mu=0.03)) > 0.05
+
+
+def test_point_list_store_has_the_parameters_as_coordinates(tmp_path):
+    f = tmp_path / "pts.csv"
+    f.write_text("speed_rpm,mu\n100,0.01\n150,0.03\n")
+    run_grid(Grid.from_csv(f), QUICK, tmp_path / "p.zarr", scheduler="serial", progress=False)
+    ds = open_dataset(tmp_path / "p.zarr")
+    assert ds["stick_ratio"].dims == ("point",)
+    assert list(ds["mu"].values) == [0.01, 0.03] and "mu" in ds.coords
+
+
+def test_resume_runs_only_the_missing_points_and_says_so(tmp_path, capsys):
+    g = Grid.parse(["speed_rpm=100,150,200", "mu=0.01,0.03"])
+    store = tmp_path / "r.zarr"
+    seen = []
+
+    def stop_after_two(rec):
+        seen.append(rec["index"])
+        if len(seen) == 2:
+            raise KeyboardInterrupt  # as Ctrl-C between two points
+
+    run = run_grid(g, QUICK, store, scheduler="serial", progress=False,
+                   on_record=stop_after_two)
+    assert run.interrupted and run.after["not_run"] == 4
+    again = []
+    run = run_grid(g, QUICK, store, scheduler="serial", stream=sys.stderr,
+                   on_record=lambda r: again.append(r["index"]))
+    assert "2 done (2 ok, 0 failed, 0 invalid), 4 to run" in capsys.readouterr().err
+    assert sorted(again) == [i for i in range(6) if i not in seen]
+    assert run.after == {"ok": 6, "failed": 0, "invalid": 0, "not_run": 0}
+    whole = run_grid(g, QUICK, tmp_path / "w.zarr", scheduler="serial", progress=False)
+    assert whole.ran == 6
+    a, b = open_dataset(store).load(), open_dataset(tmp_path / "w.zarr").load()
+    for name in PHYSICS:
+        if name in a:
+            np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+    np.testing.assert_array_equal(a["poincare"].values, b["poincare"].values)
+    # a third run has nothing to do
+    assert run_grid(g, QUICK, store, scheduler="serial", progress=False).ran == 0
+
+
+def test_changed_setting_is_refused_naming_it_unless_a_new_store_is_asked(tmp_path, capsys):
+    out = str(tmp_path / "c")
+    argv = ["sweep", "speed_rpm=100", "torque=-100,3900", "--scheduler", "serial", "--out",
+            out, "--quiet", *QUICK_ARGS]
+    assert main(argv) == 1  # the negative torque is invalid
+    capsys.readouterr()
+    before = sorted(p.name for p in (tmp_path / "c.zarr").rglob("*"))
+    assert main([*argv, "--rtol", "1e-6"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "rtol = 1e-07 in the store, 1e-06 now" in err
+    assert "--new-store" in err
+    assert main([*argv, "--friction", "nominal"]) == 2
+    assert "friction = 'stick_slip' in the store, 'nominal' now" in capsys.readouterr().err
+    assert main(["sweep", "speed_rpm=100,150", "torque=-100,3900", "--scheduler", "serial",
+                 "--out", out, *QUICK_ARGS]) == 2
+    assert "grid speed_rpm (1) x torque (2) = 2 points in the store" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "c.zarr").rglob("*")) == before  # untouched
+    # the invalid point is kept (not run again) unless asked
+    assert main([*argv]) == 1
+    assert json.loads(capsys.readouterr().out)["ran"] == 0
+    assert main([*argv, "--rerun-failed"]) == 1
+    assert json.loads(capsys.readouterr().out)["ran"] == 1
+    # a new store when asked: the old one replaced
+    assert main([*argv, "--rtol", "1e-6", "--new-store"]) == 1
+    assert json.loads(capsys.readouterr().out)["ran"] == 2
+    assert Store.open(tmp_path / "c.zarr").settings.rtol == 1e-6
+
+
+def test_store_of_another_engine_or_layout_version_is_refused(tmp_path, capsys):
+    argv = ["sweep", "mu=0.01", "speed_rpm=100", "--scheduler", "serial", "--out",
+            str(tmp_path / "v"), "--quiet", "--no-plot", *QUICK_ARGS]
+    assert main(argv) == 0
+    capsys.readouterr()
+    meta = tmp_path / "v.zarr" / "zarr.json"
+    doc = json.loads(meta.read_text())
+    doc["attributes"]["engine_version"] = "0.0.1+older"
+    meta.write_text(json.dumps(doc))
+    assert main(argv) == 2
+    assert "engine version 0.0.1+older in the store" in capsys.readouterr().err
+    doc["attributes"]["gearpair_store"] = 99
+    meta.write_text(json.dumps(doc))
+    assert main(argv) == 2
+    assert "incompatible version (store format 99" in capsys.readouterr().err
+
+
+def test_maps_of_a_three_parameter_grid_one_per_value_or_the_chosen_slice(tmp_path, capsys):
+    argv = ["sweep", "speed_rpm=100,150", "mu=0,0.03", "torque=3000,3900", "--scheduler",
+            "serial", "--out", str(tmp_path / "m"), "--quiet", *QUICK_ARGS]
+    assert main(argv) == 0
+    files = json.loads(capsys.readouterr().out)["files"]
+    assert sorted(os.path.basename(p) for p in files["maps"]) == [
+        "m_map_torque=3000.png", "m_map_torque=3900.png"]
+    assert main([*argv, "--slice", "torque=3800"]) == 0  # the nearest value
+    files = json.loads(capsys.readouterr().out)["files"]
+    assert [os.path.basename(p) for p in files["maps"]] == ["m_map_torque=3900.png"]
+    assert os.path.getsize(files["maps"][0]) > 5000
+    summary = json.loads((tmp_path / "m.json").read_text())
+    assert summary["ok"] == 8 and summary["settings"]["kept_periods"] == 10
+
+
+def test_one_parameter_sweep_keeps_its_files_and_stores_too(tmp_path, capsys):
+    assert main(["sweep", "mu", "0,0.03", "--scheduler", "serial", "--out",
+                 str(tmp_path / "o"), "--no-plot", *QUICK_ARGS]) == 0
+    cap = capsys.readouterr()
+    assert "0 done (0 ok, 0 failed, 0 invalid), 2 to run" in cap.err
+    assert "CPU" in cap.err and "speed-up over one core" in cap.err
+    assert (tmp_path / "o.csv").exists() and (tmp_path / "o_poincare.csv").exists()
+    ds = open_dataset(tmp_path / "o.zarr")
+    assert ds["stick_ratio"].dims == ("mu",) and int(ds["done"].sum()) == 2
+
+
+# -- a killed client ----------------------------------------------------------------------------
+@pytest.mark.slow
+def test_client_killed_at_random_moments_leaves_a_readable_store(tmp_path):
+    """SIGKILL or SIGINT at random moments (start-up, store creation, between and inside point
+    writes), 10 times: the store opens every time, finished points stay finished, and each
+    completed store equals an uninterrupted run. A store that completes between kills is
+    followed by a new one, so that the kills keep landing inside sweeps."""
+    g = ["speed_rpm=100,130,160,190", "mu=0.01,0.02,0.03,0.04"]
+    rnd = random.Random(26)
+    stores, done_before, mid_sweep = [tmp_path / "k0.zarr"], 0, 0
+
+    def cmd(store):
+        return [sys.executable, "-m", "gearpair.cli", "sweep", *g, "--scheduler", "serial",
+                "--out", str(tmp_path / "k"), "--store", str(store), "--quiet", "--no-plot",
+                *QUICK_ARGS]
+
+    for kill in range(10):
+        store = stores[-1]
+        p = subprocess.Popen(cmd(store), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        if kill % 4 == 0:  # anywhere: start-up, store creation or the points
+            time.sleep(rnd.uniform(0.2, 4.0))
+        else:  # while the points run: the store is there, then the kernels load (~1 s)
+            t0 = time.monotonic()
+            while not store.exists() and p.poll() is None and time.monotonic() - t0 < 60:
+                time.sleep(0.02)
+            time.sleep(rnd.uniform(0.3, 2.5))
+        p.send_signal(signal.SIGKILL if kill % 2 == 0 else signal.SIGINT)
+        _, err = p.communicate(timeout=60)
+        # killed; interrupted (130, or -SIGINT before the sweep caught it); or already done
+        assert p.returncode in (-signal.SIGKILL, -signal.SIGINT, 130, 0), err.decode()[-2000:]
+        if not store.exists():
+            continue
+        ds = open_dataset(store).load()  # always readable
+        done = int(ds["done"].sum())
+        assert done >= done_before
+        ok = ds["done"] == 1  # a point marked done has its whole record
+        assert bool((ds["stick_ratio"].notnull() | ~ok).all())
+        assert bool((ds["poincare_count"].where(ok, 10) == 10).all())
+        mid_sweep += 0 < done < 16
+        done_before = done
+        if done == 16:
+            stores.append(tmp_path / f"k{len(stores)}.zarr")
+            done_before = 0
+    assert mid_sweep >= 3  # the kills did land inside sweeps
+    run_grid(Grid.parse(g), QUICK, tmp_path / "w.zarr", scheduler="serial", progress=False)
+    whole = open_dataset(tmp_path / "w.zarr").load()
+    for store in stores:
+        subprocess.run(cmd(store), check=True, stdout=subprocess.DEVNULL, timeout=120)
+        ds = open_dataset(store).load()
+        assert int(ds["done"].sum()) == 16
+        for name in PHYSICS:
+            if name in ds:
+                np.testing.assert_array_equal(ds[name].values, whole[name].values,
+                                              err_msg=name)

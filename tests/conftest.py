@@ -38,12 +38,12 @@ def md(fmu_path):
 def no_runs(monkeypatch):
     """Any run (scene, sweep, bench) fails the test: the checks must come first."""
     import gearpair.bench
-    import gearpair.sweep.command
+    import gearpair.sweep.study
     from gearpair.scenes import Scene
 
     def ran(*a, **k):
         raise AssertionError("the run started before the output check")
 
     monkeypatch.setattr(Scene, "run", ran)
-    monkeypatch.setattr(gearpair.sweep.command, "run_grid", ran)
+    monkeypatch.setattr(gearpair.sweep.study, "run_grid", ran)
     monkeypatch.setattr(gearpair.bench, "run", ran)

@@ -33,16 +33,16 @@ treated the same way. A point whose value the parameter validation refuses, or t
 outside the model's validity (a negative torque without backlash: the teeth part for good),
 is not run and not retried: ``status = invalid`` with the reason. Nothing is dropped.
 
-``gearpair sweep PARAM VALUES`` is the command line (`command.add_parser`, `command.main`).
+``gearpair sweep`` is the command line (`gearpair.cli.sweep`).
 
 The package holds one concern per module: `settings` (what is held and what may vary),
-`point` (one point), `run` (serial or dask execution), `progress`, `result` (the finished
-sweep and its one-parameter files) and `plot`.
+`grid` (the points), `point` (one point), `run` (serial or dask execution), `store` (the Zarr
+store written as points finish), `study` (a grid into a store, resumable), `progress`,
+`result` (a one-parameter sweep and its files) and `plot`.
 """
 
 from __future__ import annotations
 
-from .command import add_parser, main, settings_from_args
 from .grid import Grid, parse_values
 from .plot import plot_maps, plot_sweep, sweep_title
 from .point import COLUMNS, record_periods, run_point
@@ -55,9 +55,9 @@ from .study import StudyRun, run_grid
 
 __all__ = [
     "COLUMNS", "INPUTS", "Grid", "Progress", "Store", "StoreError", "StudyRun", "SweepResult",
-    "SweepSettings", "add_parser", "local_cluster", "main", "open_dataset", "outside_validity",
+    "SweepSettings", "local_cluster", "open_dataset", "outside_validity",
     "parse_values", "plot_maps", "plot_sweep", "read_csv", "read_poincare_csv", "read_result",
-    "record_periods", "run_grid", "run_point", "run_sweep", "settings_from_args",
+    "record_periods", "run_grid", "run_point", "run_sweep",
     "sweep_title", "sweepable",
 ]
 

@@ -64,6 +64,16 @@ _PHYSICS = ("params.py", "effects.py", "geometry.py", "stiffness.py", "potential
             "sweep/settings.py")
 
 
+def _zarr():
+    try:
+        import xarray  # noqa: F401 - readers need it; say so before anything is written
+        import zarr
+    except ImportError as exc:
+        raise StoreError(f"the sweep store needs zarr and xarray ({exc}): pip install -e "
+                         "'.[sweep]'") from None
+    return zarr
+
+
 def engine_version() -> str:
     """The package version and a digest of the code that decides a point's results: the
     fast engine (`gearpair.jitcache.engine_files`, numba's version) and the physics and
@@ -138,7 +148,7 @@ class Store:
     @classmethod
     def open(cls, path: str | Path, mode: str = "r") -> Store:
         """An existing store (``mode`` ``"r"`` or ``"r+"``); `StoreError` when it is none."""
-        import zarr
+        zarr = _zarr()
 
         path = Path(path)
         meta = path / "zarr.json"
@@ -182,7 +192,7 @@ class Store:
     @classmethod
     def _create(cls, path: Path, grid: Grid, settings: SweepSettings,
                 replace_old: bool) -> Store:
-        import zarr
+        zarr = _zarr()
 
         path = path.absolute()
         try:

@@ -754,7 +754,7 @@ def test_communication_point_on_a_pair_boundary(name):
 @pytest.mark.fmu
 def test_fmu_default_point_runs_past_a_pair_boundary(fmu_path, md):
     """`fmpy simulate` at the paper's 100 r/min with 0.01 s steps runs through the step that
-    ends on the pair entry at 0.2 s (it used to stop there with fmi2Discard)."""
+    ends on the pair entry at 0.2 s (a communication point on a pair boundary, docs/limits.md)."""
     res = simulate_fmu(str(fmu_path), stop_time=0.25, output_interval=0.01,
                             output=["mesh_force"])
     assert res["time"][-1] == pytest.approx(0.25)

@@ -268,7 +268,7 @@ class ReferenceEngine(Engine):
                 if n_ev > self.max_events:
                     raise RuntimeError(
                         f"more than {self.max_events} contact switches in one step "
-                        f"(t = {self.t:.9g} s): the run stalls; see README 'Limits'")
+                        f"(t = {self.t:.9g} s): the run stalls (docs/limits.md, event-count rule)")
             self._prev_active = active
         self.t = float(t_end)
         self.n_events_total += n_ev

@@ -467,7 +467,7 @@ class FastEngine(Engine):
         if status == STATUS_EVENTS:
             raise RuntimeError(
                 f"more than {int(self._md.flag[I_MAXEV])} contact switches in one step "
-                f"(t = {out[O_TFAIL]:.9g} s): the run stalls; see README 'Limits'")
+                f"(t = {out[O_TFAIL]:.9g} s): the run stalls (docs/limits.md, event-count rule)")
         if status == STATUS_STEP:
             raise ArithmeticError(
                 f"Runge-Kutta step size underflow at t = {out[O_TFAIL]:.9g} s")

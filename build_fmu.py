@@ -155,6 +155,12 @@ def complete_model_description(xml: bytes, spec: list[dict]) -> bytes:
     if missing:
         raise RuntimeError(f"variables missing from modelDescription.xml: {sorted(missing)}")
 
+    # initial outputs (fmi2ExitInitializationMode: the static equilibrium) follow from the
+    # torque and speed inputs and the parameters, not from load_speed, which acts only
+    # through steps: declaring all inputs made OMSimulator report an algebraic loop at
+    # initialization wherever load_speed is fed back
+    at_init = [str(index[v["name"]]) for v in spec
+               if v["causality"] == "parameter" or v["name"] in ("torque", "speed")]
     for el in root.findall("ModelStructure"):
         root.remove(el)
     structure = ET.Element("ModelStructure")
@@ -169,8 +175,9 @@ def complete_model_description(xml: bytes, spec: list[dict]) -> bytes:
         ET.SubElement(outs, "Unknown", index=i, dependencies="", dependenciesKind="")
         if v["name"] == "n_events":  # 0 before the first step: depends on nothing
             ET.SubElement(init, "Unknown", index=i, dependencies="", dependenciesKind="")
-        else:  # no dependencies attribute: depends on all inputs and parameters
-            ET.SubElement(init, "Unknown", index=i)
+        else:
+            ET.SubElement(init, "Unknown", index=i, dependencies=" ".join(at_init),
+                          dependenciesKind=" ".join(["dependent"] * len(at_init)))
     root.append(structure)
 
     root[:] = sorted(root, key=lambda el: _ORDER.index(el.tag))  # stable: keeps inner order

@@ -10,6 +10,15 @@ if command -v apt-get >/dev/null 2>&1 && command -v dpkg >/dev/null 2>&1 \
     { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq libtbb12; } >/dev/null 2>&1 \
         || echo "setup.sh: could not install libtbb12; the ecospy host tests will be skipped" >&2
 fi
+# OMSimulator (optional co-simulation master, tests/test_omsimulator.py), when present at
+# $OMSIMULATOR_HOME or ../shared/tools/omsimulator: its binaries link ICU 72 (libicu72).
+OMS_HOME=${OMSIMULATOR_HOME:-../shared/tools/omsimulator}
+if [ -x "$OMS_HOME/bin/OMSimulator" ] && command -v apt-get >/dev/null 2>&1 \
+        && command -v dpkg >/dev/null 2>&1 && ! dpkg -s libicu72 >/dev/null 2>&1; then
+    SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo -n"
+    { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq libicu72; } >/dev/null 2>&1 \
+        || echo "setup.sh: could not install libicu72; the OMSimulator tests will be skipped" >&2
+fi
 # A C compiler: build_fmu.py compiles the FMU's binary (fmu_src/c) and the host tests build
 # C hosts. Installed like libtbb12 when missing and apt-get is usable.
 if ! command -v "${CC:-gcc}" >/dev/null 2>&1 && ! command -v cc >/dev/null 2>&1; then

@@ -156,6 +156,31 @@ def test_outputs_declared_and_found_independent_of_inputs(md, unzipdir):
     assert runs[0]["gear2_speed"] != runs[1]["gear2_speed"]
 
 
+def test_initial_outputs_declared_and_found_independent_of_load_speed(md, unzipdir):
+    """<InitialUnknowns> lists torque and speed (and the parameters), not load_speed, for
+    every output: the static equilibrium of fmi2ExitInitializationMode does not use it, so
+    a master feeding load_speed back sees no loop at initialization."""
+    names = {i: v.name for i, v in enumerate(md.modelVariables, start=1)}
+    declared = {u.variable.name: {d.name for d in u.dependencies} for u in md.initialUnknowns}
+    assert declared["mesh_force"] >= {"torque", "speed", "mu"}
+    assert all("load_speed" not in deps for deps in declared.values())
+    assert set(names.values()) >= set(declared)
+    outputs = [x for x in md.modelVariables if x.causality == "output"]
+
+    def initial(**inputs):
+        g = Instance(md, unzipdir)
+        try:
+            g.initialize(**FAST, load_speed_input=True, **inputs)
+            return [(g.fmu.getReal if x.type == "Real" else g.fmu.getInteger)(
+                [x.valueReference])[0] for x in outputs]
+        finally:
+            g.close()
+
+    base = initial(load_speed=0.0)
+    assert initial(load_speed=30 * RPM) == base
+    assert initial(torque=1000.0) != base
+
+
 def test_parameters_match_gearparams(md):
     """Every GearParams field is a parameter with the field's unit and range."""
     spec = importlib.util.spec_from_file_location(

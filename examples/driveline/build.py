@@ -84,11 +84,15 @@ def complete_model_description(xml: bytes, variables: tuple[tuple, ...]) -> byte
     structure = ET.SubElement(root, "ModelStructure")
     outs = ET.SubElement(structure, "Outputs")
     init = ET.SubElement(structure, "InitialUnknowns")
+    # initial outputs follow from the parameters alone (no input): an initial value that
+    # declared all inputs (no dependencies attribute) made masters see algebraic loops
+    params = [str(index[name]) for name, causality, *_ in variables if causality == "parameter"]
     for name, causality, *_ in variables:
         if causality == "output":
             ET.SubElement(outs, "Unknown", index=str(index[name]), dependencies="",
                           dependenciesKind="")
-            ET.SubElement(init, "Unknown", index=str(index[name]))  # on the parameters
+            ET.SubElement(init, "Unknown", index=str(index[name]), dependencies=" ".join(params),
+                          dependenciesKind=" ".join(["dependent"] * len(params)))
     root[:] = sorted(root, key=lambda el: _ORDER.index(el.tag))
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)

@@ -354,11 +354,12 @@ communication steps are therefore accurate; the step figures
 <li>Variable communication step sizes, <code>fmi2GetFMUstate</code>/<code>fmi2SetFMUstate</code>
 and state serialization are supported; a serialized state can be restored into a fresh
 instance of this FMU.</li>
-<li>The FMU runs Python code (pythonfmu). It needs Python 3 with numpy, scipy and numba
-(<code>resources/requirements.txt</code>; <code>pythonfmu deploy -f GearPair.fmu</code>
-installs them). Python hosts (fmpy, libcosimpy, ecospy) use their own interpreter; other
-hosts on Linux need <code>LD_PRELOAD</code> set to the libpython of that interpreter and
-<code>PYTHONPATH</code> to its packages. Binaries: Linux x86_64 only.</li>
+<li>The FMU runs Python code (pythonfmu). It needs Python 3 with numpy, scipy, pythonfmu
+and numba (<code>resources/requirements.txt</code>). Python hosts (fmpy, libcosimpy,
+ecospy) use their own interpreter; other hosts (C/C++ masters) need nothing set: the FMU
+loads the Python that built it (<code>resources/python.txt</code>), or the python executable
+that the environment variable <code>GEARPAIR_PYTHON</code> names. With logging on, the
+first message says which Python and engine run. Binaries: Linux x86_64 only.</li>
 </ul>
 
 <h2>Inputs</h2>

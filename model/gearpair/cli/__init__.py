@@ -4,7 +4,7 @@ gearpair modes [SCENE.toml] [--set NAME=VALUE ...] [--bore-ratio R] [--first-mod
 gearpair simulate SCENE.toml [--engine fast|fmu|reference] [--out run.csv] [--plot run.png]
                   [--json] [--t-end S] [--set NAME=VALUE ...]
 gearpair simulate [--json] [--out run.csv] [--t-end S] [--speed-rpm N] [--torque NM] ...
-gearpair sweep PARAM VALUES [...]        gearpair bench [...]
+gearpair sweep PARAM VALUES | NAME=VALUES ... [--store S.zarr] [...]    gearpair bench [...]
 
 Each subcommand module (`modes`, `simulate`, `sweep`, `bench`) has ``add_parser(sub)`` and
 ``run(args)``; `common` holds the options they share. Building the parser imports no

@@ -15,6 +15,8 @@ from .progress import Progress
 from .result import SweepResult
 from .settings import SweepSettings, sweepable
 
+BATCH = 256  # most records handed to the sink at once
+
 
 @dataclass
 class Cost:
@@ -67,18 +69,20 @@ def run_sweep(name: str, values, settings: SweepSettings | None = None, *,
     bar = Progress(len(values), f"sweep {name}", stream, progress)
     records: dict[int, dict] = {}
     cost = execute([(i, name, v) for i, v in enumerate(values)], settings,
-                   lambda rec: records.__setitem__(rec["index"], rec), scheduler=scheduler,
-                   workers=workers, retries=retries, bar=bar)
+                   lambda recs: records.update((r["index"], r) for r in recs),
+                   scheduler=scheduler, workers=workers, retries=retries, bar=bar)
     recs = [records[i] for i in range(len(values))]
     return SweepResult(name, values, settings, recs, cost.elapsed_s, cost.startup_s,
                        cost.workers, cost.scheduler, cost.retried)
 
 
-def execute(tasks: list[tuple], settings: SweepSettings, sink: Callable[[dict], None], *,
+def execute(tasks: list[tuple], settings: SweepSettings, sink: Callable[[list[dict]], None], *,
             scheduler: str | None = None, workers: int | None = None, retries: int = 1,
             bar: Progress | None = None) -> Cost:
     """Run the points ``tasks`` (``(index, name, value)`` as `run_point` takes them) and hand
-    each final record to ``sink`` as soon as it is in (a failed point after its retries).
+    the final records (a failed point's after its retries) to ``sink`` as soon as they are
+    in: a list of one, or of every result waiting at that moment (at most `BATCH`), so that
+    a store writes a burst of results at once.
 
     ``scheduler``: ``"serial"`` (this process), None (a new local cluster of ``workers``
     processes) or a scheduler's address. Returns the `Cost`.
@@ -99,7 +103,7 @@ def execute(tasks: list[tuple], settings: SweepSettings, sink: Callable[[dict], 
                 bar.update(False, retrying=True)
                 retried += 1
                 rec = run_point(i, name, v, settings, _tighter(settings.rtol, a), a)
-            sink(rec)
+            sink([rec])
             bar.update(rec["status"] != "failed")
         return Cost(time.perf_counter() - t1, startup, 1, "serial", retried)
     return _run_dask(tasks, settings, sink, scheduler, workers, retries, bar, t0)
@@ -166,6 +170,7 @@ def _run_dask(tasks, settings, sink, scheduler, workers, retries, bar, t0) -> Co
         ac = as_completed(first)
         del first
         retried = 0
+        ready: list[dict] = []
         # A worker that dies takes its running tasks with it; the scheduler runs them again
         # on another worker (each result still arrives here once, its future's).
         for fut in ac:
@@ -185,8 +190,12 @@ def _run_dask(tasks, settings, sink, scheduler, workers, retries, bar, t0) -> Co
                 futs[g.key] = (i, name, v, attempt + 1)
                 ac.add(g)
                 continue
-            sink(rec)
-            bar.update(rec["status"] != "failed")
+            ready.append(rec)
+            if len(ready) >= BATCH or not ac.has_ready():
+                sink(ready)
+                for r in ready:
+                    bar.update(r["status"] != "failed")
+                ready = []
         elapsed = time.perf_counter() - t1
     finally:
         client.close()

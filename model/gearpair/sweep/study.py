@@ -153,12 +153,13 @@ def run_grid(grid: Grid, settings: SweepSettings | None = None,
             tasks.append((i, names, tuple(p.values()) if len(p) > 1 else p[names]))
         bar = Progress(len(todo), "sweep", stream, progress)
 
-        def sink(rec: dict) -> None:
-            st.write(rec)
-            run.ran += 1
-            run.cpu_s += float(rec.get("cpu_s", 0.0) or 0.0)
-            if on_record is not None:
-                on_record(rec)
+        def sink(recs: list[dict]) -> None:
+            st.write_many(recs)
+            for rec in recs:
+                run.ran += 1
+                run.cpu_s += float(rec.get("cpu_s", 0.0) or 0.0)
+                if on_record is not None:
+                    on_record(rec)
 
         t0 = time.perf_counter()
         try:

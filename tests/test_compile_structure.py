@@ -16,10 +16,11 @@ import numba
 import pytest
 
 from gearpair import jitcache, jitlink
-from gearpair.fast import contact, events, extremes, loop, lti, rk, switching
+from gearpair.fast import contact, events, extremes, loop, lti, native, rk, switching
 
-MODULES = (contact, events, extremes, loop, lti, rk, switching)
-ENTRIES = {"advance_entry", "run_grid_entry", "outputs_entry", "eval_entry", "reset_entry"}
+MODULES = (contact, events, extremes, loop, lti, native, rk, switching)
+ENTRIES = {"step_entry", "step_lti_entry", "run_grid_entry", "outputs_entry", "eval_entry",
+           "reset_entry"}
 
 
 def dispatchers():

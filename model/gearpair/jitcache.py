@@ -38,13 +38,15 @@ _HERE = os.path.dirname(os.path.abspath(__file__))
 
 def engine_files(root: str = _HERE) -> list[str]:
     """The engine's source files under a package folder: ``fast.py`` or ``fast/*.py``
-    (sorted), plus this file and `jitlink`, whose options shape the compiled code."""
+    (sorted), plus this file and `jitlink`, whose options shape the compiled code, and
+    `stepblock`, whose slots the compiled step reads."""
     pkg = os.path.join(root, "fast")
     if os.path.isdir(pkg):
         files = sorted(os.path.join(pkg, n) for n in os.listdir(pkg) if n.endswith(".py"))
     else:
         files = [pkg + ".py"]
-    return files + [os.path.join(root, "jitcache.py"), os.path.join(root, "jitlink.py")]
+    extra = [os.path.join(root, n) for n in ("jitcache.py", "jitlink.py", "stepblock.py")]
+    return files + [p for p in extra if os.path.isfile(p)]
 
 
 def _file_digest(path: str) -> str:

@@ -3,9 +3,9 @@ records they take (`layout`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
-import numba
 import numpy as np
 
 from ..effects import Effects
@@ -48,14 +48,10 @@ from .layout import (
     N_REC,
     N_SC,
     N_ST,
+    N_X,
     N_Y,
     NZ,
-    O_FINT,
-    O_FMAX,
-    O_FMIN,
-    O_NEV,
     O_NREJ,
-    O_NSTEPS,
     O_STATUS,
     O_TFAIL,
     P_BACK,
@@ -91,21 +87,31 @@ from .layout import (
     S_KM,
     STATUS_EVENTS,
     STATUS_STEP,
+    STEP_DONE,
     T_BACK,
     T_H,
+    T_LAST0,
+    T_LAST1,
     T_S,
     T_SEP,
     T_SPEED,
     T_STICK,
     T_T,
     T_TORQUE,
+    X_FMU,
+    X_LOAD,
+    X_LOADON,
+    X_REC,
+    X_SPEED,
+    X_TEND,
+    X_TORQUE,
     Y_A,
-    Y_AD,
     HybridState,
     ModelData,
     Work,
 )
-from .loop import advance_entry, eval_entry, outputs_entry, reset_entry, run_grid_entry
+from .loop import eval_entry, outputs_entry, reset_entry, run_grid_entry
+from .native import compiled, handoff_table, step_entry, step_lti_entry
 from .tableaux import METHOD_CODE, RK_NK
 
 # typical magnitudes for the default absolute tolerance (as the reference)
@@ -310,8 +316,12 @@ class FastEngine(Engine):
         self._args = (tuple(self._md), tuple(self._wk), tuple(self._hs))
         # None compiles no exact propagator for an engine that does not use it (`loop.piece`)
         self._lti = True if mi[I_LTI] else None
-        self._advance_fn = None  # advance_entry compiled for these argument types (_advance)
-        self._last = None
+        # the compiled step (`native`): its hand-off table, the rollback copy of the state and
+        # the step block (this engine's own, or a caller's: `bind_block`)
+        self._saved = np.zeros_like(self._state)
+        self._entry = step_lti_entry if self._lti else step_entry
+        self._step = None  # the compiled step as a Python callable, once loaded (`native_step`)
+        self.bind_block(np.zeros(N_X))
         self._outputs: Outputs | None = None  # cache, valid until the state changes
         self._o_fresh = False  # wk.outputs holds the outputs of the current state
         self.reset()
@@ -343,6 +353,17 @@ class FastEngine(Engine):
         reset_entry(*self._args)
         self._last = None
         self._stale()
+
+    @property
+    def _last(self) -> tuple | None:
+        """(start, end) of the last step (s), or None: kept in the state buffer, so the
+        compiled step (`native`) and a rollback keep it too."""
+        st = self._hs.clock
+        return None if math.isnan(st[T_LAST0]) else (float(st[T_LAST0]), float(st[T_LAST1]))
+
+    @_last.setter
+    def _last(self, last) -> None:
+        self._hs.clock[T_LAST0:T_LAST1 + 1] = (math.nan, math.nan) if last is None else last
 
     def get_state(self) -> dict:
         hs = self._hs
@@ -413,6 +434,31 @@ class FastEngine(Engine):
         f = self.advance_values(t_end, torque, speed, load_speed)
         return StepSummary(t_start, float(t_end), *f)
 
+    def bind_block(self, block: np.ndarray) -> None:
+        """Let the compiled step read its inputs from and write its step record into
+        ``block`` (float64[`layout.N_X`], `layout.X_*`), which the caller keeps alive: the
+        FMU slave holds its input and output variables there."""
+        if block.shape != (N_X,):
+            raise ValueError(f"a step block has {N_X} values, not {block.shape}")
+        self._block = block
+        self._table = handoff_table(self._md, self._wk, self._hs, block, self._state,
+                                    self._saved)
+        self._table_address = int(self._table.ctypes.data)
+
+    @property
+    def block(self) -> np.ndarray:
+        """The step block (`bind_block`)."""
+        return self._block
+
+    def native_step(self) -> tuple:
+        """(Python callable, C address, table address) of this engine's compiled step
+        (`gearpair.fast.native`): ``call(table_address)`` or, from C, ``int64_t
+        step(int64_t table_address)`` advances the engine as the step block says and returns
+        a `layout.STEP_*` code. Valid while this engine lives."""
+        if self._step is None:
+            self._step, self._step_address = compiled(self._entry)
+        return self._step, self._step_address, self._table_address
+
     def advance_values(self, t_end: float, torque: float, speed: float,
                        load_speed: float | None = None) -> tuple:
         """`advance` for a caller that has validated the inputs and reads plain numbers (the
@@ -427,39 +473,17 @@ class FastEngine(Engine):
         t_start = self.time
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
-        st, mp = self._hs.clock, self._md.par
-        t_stick0, t_sep0, t_back0 = st[T_STICK], st[T_SEP], st[T_BACK]
-        self._hs.y[Y_AD] = 0.0 if load_speed is None else \
-            -mp[P_RB2] * (float(load_speed) - float(speed) * mp[P_RATIO])
-        out = self._wk.summary
+        x = self._block
+        x[X_FMU] = 0.0
+        x[X_TEND], x[X_TORQUE], x[X_SPEED] = t_end, torque, speed
+        x[X_LOADON], x[X_LOAD] = (0.0, 0.0) if load_speed is None else (1.0, load_speed)
         self._stale()
-        self._advance()(*self._args, float(t_end), float(torque), float(speed), self._lti)
-        self._raise_failure()
-        self._o_fresh = True  # advance_entry left the outputs in wk.outputs
-        h = t_end - t_start
-        o = self._wk.outputs
-        self._last = (t_start, float(t_end))
-        return ((st[T_STICK] - t_stick0) / h, (st[T_SEP] - t_sep0) / h,
-                max(float(out[O_FMAX]), float(o[1])), int(out[O_NEV]), int(out[O_NSTEPS]),
-                (st[T_BACK] - t_back0) / h, float(out[O_FINT]) / h,
-                min(float(out[O_FMIN]), float(o[1])))
-
-    def _advance(self):
-        """`advance_entry` as the compiled function for this engine's argument types, once
-        a first call through numba's dispatcher has compiled or loaded it.
-
-        The dispatcher types every argument on every call, the records' 30 arrays included
-        (about 0.9 us, a tenth of an FMU step at 1e-4 s); here the types never change: the
-        records are this engine's own arrays, the times and inputs floats, ``lti`` None or
-        True.
-        """
-        if self._advance_fn is None:
-            sig = tuple(numba.typeof(a) for a in (*self._args, 0.0, 0.0, 0.0, self._lti))
-            cres = advance_entry.overloads.get(sig)
-            if cres is None:  # not compiled yet: the dispatcher compiles it now
-                return advance_entry
-            self._advance_fn = cres.entry_point
-        return self._advance_fn
+        step, _, table = self.native_step()
+        if step(table) != STEP_DONE:
+            self._raise_failure()
+        self._o_fresh = True  # the step left the outputs in wk.outputs
+        r = x[X_REC + N_O:].tolist()
+        return (r[0], r[1], r[2], int(r[3]), int(r[4]), r[5], r[6], r[7])
 
     def _raise_failure(self) -> None:
         out = self._wk.summary

@@ -43,9 +43,10 @@ N_PW = 11
 S_DELTA, S_DDELTA, S_KM, S_THETA, S_F, S_QDD, S_COMP = 0, 1, 2, 3, 4, 10, 16
 N_SC = 17
 # -- HybridState.clock (continuous scalars) and HybridState.mode (discrete) -----------------
-# T_SEP: no flank in contact (free flight); T_BACK: on the back flank (contact, not loss)
-T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL, T_BACK = range(9)
-N_ST = 9
+# T_SEP: no flank in contact (free flight); T_BACK: on the back flank (contact, not loss);
+# T_LAST0, T_LAST1: start and end of the last step (nan before one: `FastEngine.get_state`)
+T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL, T_BACK, T_LAST0, T_LAST1 = range(11)
+N_ST = 11
 # J_SEP: 0 drive flank, 1 apart, 2 back flank; J_REL: 1 + the pair released at time T_REL
 J_SEP, J_NPREV, J_NEVTOT, J_REL = range(4)
 N_IST = 4
@@ -63,6 +64,26 @@ N_O = 10  # outputs: dte, mesh, friction, state, out torque, reaction, in torque
 # a recorded row: outputs, stick and separation fractions, peak force, events, back-flank
 # fraction, mean and least mesh force over the interval
 N_REC = N_O + 7
+# -- the step block (`gearpair.stepblock`, imported here for the compiled code)
+from ..stepblock import (  # noqa: E402, F401
+    N_X,
+    STEP_DONE,
+    STEP_FAILED,
+    STEP_NONFINITE,
+    STEP_RECORD,
+    STEP_REFUSED,
+    X_BAD,
+    X_FMU,
+    X_H,
+    X_LOAD,
+    X_LOADON,
+    X_REC,
+    X_SPEED,
+    X_TCHK,
+    X_TEND,
+    X_TORQUE,
+)
+
 # -- Work.dense rows: the continuous extension, the event values at a step's ends, and the
 # mesh force at each Runge-Kutta stage of the current step
 R_GSAVE, R_GEND, R_FSTG = 8, 9, 10

@@ -352,8 +352,8 @@ def advance(md, wk, hs, t_end, torque, speed, lti):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end.
 
     ``lti``: None for an engine without the exact propagator (numba then compiles no
-    `piece_exact`), else True (flag I_LTI). Inlined into the two entry points that step
-    (`advance_entry`, `run_grid`): a compiled function of its own would be optimized by LLVM
+    `piece_exact`), else True (flag I_LTI). Inlined into the two functions that step
+    (`native.step`, `run_grid`): a compiled function of its own would be optimized by LLVM
     once more with everything it calls, and the grid would pass the records by value per
     point.
     """
@@ -492,16 +492,6 @@ def reset_settle(md, wk, hs):
 
 
 # -- entry points from Python: plain tuples in, named records inside ------------------------
-@jit_entry
-def advance_entry(md, wk, hs, t_end, torque, speed, lti):
-    """`advance`, then the outputs at the new state into wk.outputs unless it failed (the
-    FMU reads them every step: one call from Python instead of two)."""
-    m, w, h = ModelData(*md), Work(*wk), HybridState(*hs)
-    advance(m, w, h, t_end, torque, speed, lti)
-    if w.summary[O_STATUS] == STATUS_OK:
-        outputs_now(m, w, h)
-
-
 @jit_entry
 def run_grid_entry(md, wk, hs, grid, inputs, rec, lti):
     return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, inputs, rec, lti)

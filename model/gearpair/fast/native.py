@@ -1,0 +1,251 @@
+"""The engine's step as one compiled function a C caller can call: ``step(handle) -> code``.
+
+A *hand-off table* (an int64 array, `handoff_table`) holds the address and shape of every
+array of an engine's records, of its state buffer, of a rollback copy of it and of a step
+block (`layout.X_*`: the end of the step, the inputs, the step record). The compiled step
+(`step_entry`, or `step_lti_entry` for an engine with the exact propagator) rebuilds the
+records from the table and advances the engine in place: no Python object is touched, so the
+FMU's C layer calls it through its C address (`step_address`) without the interpreter, and
+Python calls the same compiled code through numba's dispatcher (`FastEngine.advance_values`,
+the FMU slave's ``do_step``). The arrays belong to the engine and the block to its caller;
+both keep them referenced for as long as the table is used.
+
+What a step does (`step`): with ``X_FMU`` set, the checks of an FMU's doStep (the
+communication point within 1e-9 relative of the engine's time, inputs in range: else
+`STEP_REFUSED` with nothing changed), a rollback copy of the state, `loop.advance` to
+``X_TEND`` with the inputs held, the outputs and the step figures into the step record, and
+on an engine failure or a non-finite value the state of the step start again
+(`STEP_FAILED`, `STEP_NONFINITE`; the record keeps the last good step's values). Without
+``X_FMU`` it advances as `FastEngine.advance_values` always did: no checks, no rollback.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+from numba.np.arrayobj import make_array, populate_array
+
+from ..jitcache import jit_entry, jit_hot
+from .layout import (
+    O_FINT,
+    O_FMAX,
+    O_FMIN,
+    O_NEV,
+    O_NSTEPS,
+    O_STATUS,
+    P_RATIO,
+    P_RB2,
+    STATUS_OK,
+    STEP_DONE,
+    STEP_FAILED,
+    STEP_NONFINITE,
+    STEP_RECORD,
+    STEP_REFUSED,
+    T_BACK,
+    T_LAST0,
+    T_LAST1,
+    T_SEP,
+    T_STICK,
+    T_T,
+    X_BAD,
+    X_FMU,
+    X_H,
+    X_LOAD,
+    X_LOADON,
+    X_REC,
+    X_SPEED,
+    X_TCHK,
+    X_TEND,
+    X_TORQUE,
+    Y_AD,
+    HybridState,
+    ModelData,
+    Work,
+)
+from .loop import advance, outputs_now
+
+N_FIG = len(STEP_RECORD) - 10  # figures after the N_O outputs
+# The hand-off table: 4 words (address, shape) per array, in this order; the kind of each
+# (f: float64, i: int64; the number: dimensions) is what the compiled step reads it as.
+_KINDS = {"md": "f1 i1 f1 f1 f1 f1",
+          "wk": "i1 i1 f1 i1 f2 f2 f1 f1 f1 f1 f2 f1 f2 f3 f2 f2 f1 f1",
+          "hs": "f1 f1 i1 f1 i1 i1",
+          "own": "f1 f1 f1"}  # the step block, the state buffer, its rollback copy
+KINDS = tuple(k for part in _KINDS.values() for k in part.split())
+N_TABLE = 4 * len(KINDS)
+
+
+def handoff_table(md: ModelData, wk: Work, hs: HybridState, block: np.ndarray,
+                  state: np.ndarray, saved: np.ndarray) -> np.ndarray:
+    """The hand-off table of an engine's records and the caller's step ``block``.
+
+    Raises ValueError unless every array is C-contiguous with the dtype and dimensions the
+    compiled step reads (`KINDS`). The table holds addresses only: the caller keeps every
+    array alive while the table is in use.
+    """
+    arrays = (*md, *wk, *hs, block, state, saved)
+    table = np.zeros(N_TABLE, dtype=np.int64)
+    for k, (a, kind) in enumerate(zip(arrays, KINDS, strict=True)):
+        dtype = np.float64 if kind[0] == "f" else np.int64
+        if a.dtype != dtype or a.ndim != int(kind[1]) or not a.flags.c_contiguous or \
+                not a.flags.writeable:
+            raise ValueError(f"hand-off array {k} is {a.dtype}[{a.ndim}d], not {kind}")
+        table[4 * k] = a.ctypes.data
+        table[4 * k + 1:4 * k + 1 + a.ndim] = a.shape
+    return table
+
+
+@intrinsic
+def _array_at(typingctx, address, shape, proto):
+    """The C-contiguous array at the int64 ``address`` with the dimensions ``shape`` (a
+    tuple of int64) and the type of the scalar ``proto`` (0.0: float64, 0: int64). It owns
+    nothing (no reference count: the engine holds the memory)."""
+    dtype = types.unliteral(proto)
+    ndim = len(shape)
+    arrty = types.Array(dtype, ndim, "C")
+    sig = arrty(address, shape, proto)
+
+    def codegen(context, builder, signature, args):
+        addr, shp, _ = args
+        ary = make_array(arrty)(context, builder)
+        itemsize = context.get_abi_sizeof(context.get_data_type(dtype))
+        dims = cgutils.unpack_tuple(builder, shp, ndim)
+        strides = [context.get_constant(types.intp, itemsize)]
+        for d in reversed(dims[1:]):
+            strides.insert(0, builder.mul(strides[0], d))
+        populate_array(ary, data=builder.inttoptr(addr, ary.data.type), shape=dims,
+                       strides=strides, itemsize=context.get_constant(types.intp, itemsize),
+                       meminfo=None)
+        return ary._getvalue()
+
+    return sig, codegen
+
+
+@jit_hot
+def records(tab):
+    """(ModelData, Work, HybridState, (step block, state buffer, its rollback copy)) from a
+    hand-off table (`KINDS`' order: 4 words per array, its address and dimensions)."""
+    def f1(k):
+        return _array_at(tab[4 * k], (tab[4 * k + 1],), 0.0)
+
+    def i1(k):
+        return _array_at(tab[4 * k], (tab[4 * k + 1],), 0)
+
+    def f2(k):
+        return _array_at(tab[4 * k], (tab[4 * k + 1], tab[4 * k + 2]), 0.0)
+
+    md = ModelData(f1(0), i1(1), f1(2), f1(3), f1(4), f1(5))
+    wk = Work(i1(6), i1(7), f1(8), i1(9), f2(10), f2(11), f1(12), f1(13), f1(14), f1(15),
+              f2(16), f1(17), f2(18),
+              _array_at(tab[76], (tab[77], tab[78], tab[79]), 0.0),  # 19: lti_mats
+              f2(20), f2(21), f1(22), f1(23))
+    hs = HybridState(f1(24), f1(25), i1(26), f1(27), i1(28), i1(29))
+    return md, wk, hs, (f1(30), f1(31), f1(32))
+
+
+@jit_hot
+def refused(x, st):
+    """Whether the FMU's doStep must not begin: the communication point is not the engine's
+    time (within 1e-9 relative, as the slave's check), the step does not end after it, or
+    an input is out of range (`gearpair.engine.check_inputs`). The slave's own checks then
+    say which."""
+    t, h = x[X_TCHK], x[X_H]
+    if not (abs(t - st[T_T]) <= 1e-9 * max(1.0, abs(t), h) and x[X_TEND] > st[T_T]):
+        return True
+    if not (abs(x[X_TORQUE]) <= 1e6 and abs(x[X_SPEED]) <= 2e4):
+        return True
+    return x[X_LOADON] != 0.0 and not abs(x[X_LOAD]) <= 2e4
+
+
+@jit_hot
+def figures(wk, st, start):
+    """The step figures in `StepSummary`'s order after the times, as `STEP_RECORD` has
+    them; ``start``: time, stick, separation and back-flank times at the step's start."""
+    summ, f = wk.summary, wk.outputs[1]
+    h = st[T_T] - start[0]
+    # max(peak, force at the end) and min(...) as Python's max and min pick them
+    return ((st[T_STICK] - start[1]) / h, (st[T_SEP] - start[2]) / h,
+            f if f > summ[O_FMAX] else summ[O_FMAX], summ[O_NEV], summ[O_NSTEPS],
+            (st[T_BACK] - start[3]) / h, summ[O_FINT] / h,
+            f if f < summ[O_FMIN] else summ[O_FMIN])
+
+
+@jit_hot
+def first_not_finite(o, fig):
+    """The record slot of the first value that is not finite, or -1."""
+    n_o = o.shape[0]
+    for m in range(n_o + N_FIG):
+        v = o[m] if m < n_o else fig[m - n_o]
+        if not math.isfinite(v):
+            return m
+    return -1
+
+
+@jit_hot
+def step(tab, lti):
+    """One step of the engine of the hand-off table ``tab`` (module docstring); returns a
+    `STEP_*` code."""
+    md, wk, hs, (x, state, saved) = records(tab)
+    st, mp = hs.clock, md.par
+    fmu = x[X_FMU] != 0.0
+    if fmu:
+        if refused(x, st):
+            return STEP_REFUSED
+        for m in range(state.shape[0]):
+            saved[m] = state[m]
+    t_end, speed = x[X_TEND], x[X_SPEED]
+    start = (st[T_T], st[T_STICK], st[T_SEP], st[T_BACK])
+    hs.y[Y_AD] = 0.0 if x[X_LOADON] == 0.0 else \
+        -mp[P_RB2] * (x[X_LOAD] - speed * mp[P_RATIO])
+    advance(md, wk, hs, t_end, x[X_TORQUE], speed, lti)
+    code = STEP_FAILED
+    if wk.summary[O_STATUS] == STATUS_OK:
+        outputs_now(md, wk, hs)
+        fig = figures(wk, st, start)
+        bad = first_not_finite(wk.outputs, fig) if fmu else -1
+        x[X_BAD] = bad
+        if bad < 0:
+            code = STEP_DONE
+            st[T_LAST0] = start[0]
+            st[T_LAST1] = t_end
+            o, n_o = wk.outputs, wk.outputs.shape[0]
+            for m in range(n_o):
+                x[X_REC + m] = o[m]
+            for m in range(N_FIG):
+                x[X_REC + n_o + m] = fig[m]
+        else:
+            code = STEP_NONFINITE
+    if code != STEP_DONE and fmu:
+        for m in range(state.shape[0]):
+            state[m] = saved[m]
+    return code
+
+
+# -- entry points: called from Python through numba's dispatcher, from C at their address --
+@jit_entry
+def step_entry(table_address):
+    """`step` of an engine that integrates by Runge-Kutta (``FastEngine._lti`` None)."""
+    return step(_array_at(table_address, (N_TABLE,), 0), None)
+
+
+@jit_entry
+def step_lti_entry(table_address):
+    """`step` of an engine with the exact propagator (``FastEngine._lti`` True)."""
+    return step(_array_at(table_address, (N_TABLE,), 0), True)
+
+
+def compiled(dispatcher) -> tuple:
+    """(Python callable, C address) of a step entry point: the compiled function called
+    without numba's per-call typing, and its C wrapper ``int64_t step(int64_t table)``.
+    Loads (or compiles) it on first use, without running it."""
+    sig = (types.int64,)
+    cres = dispatcher.overloads.get(sig)
+    if cres is None:
+        dispatcher.compile(sig)
+        cres = dispatcher.overloads[sig]
+    address = cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name)
+    return cres.entry_point, int(address)

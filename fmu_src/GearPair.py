@@ -30,6 +30,7 @@ import pickle
 import sys
 from typing import Any
 
+import numpy as np
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
@@ -104,10 +105,6 @@ OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | Non
     ("n_events", "Integer", None, None, 0, None,
      "number of state switches located in the last communication step"),
 )
-_OUTPUT_FIELDS = ("dte", "mesh_force", "friction_force", "output_torque",
-                  "input_torque_reaction", "input_torque", "gear1_speed", "gear2_speed",
-                  "sliding_velocity")
-_SUMMARY_FIELDS = ("stick_fraction", "separation_fraction", "mesh_force_max")
 # Step figures added later: registered after every other variable (`interface`), so the value
 # references of the earlier ones stay as they were; their values are the last three step
 # figures in `StepSummary`'s order (`_values_of`, `FastEngine.advance_values`).
@@ -122,8 +119,29 @@ APPENDED_OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, fl
     ("mesh_force_min", "Real", "N", "kN", None, None,
      "least elastic mesh force in the last communication step"),
 )
-_APPENDED_FIELDS = tuple(row[0] for row in APPENDED_OUTPUTS)
-_VALUE_ORDER = _OUTPUT_FIELDS[:3] + ("contact_state",) + _OUTPUT_FIELDS[3:]  # `_copy_values`
+# The C layer's hand-off (`GearPair.get_integer`): value references no modelDescription has.
+# NATIVE_VR + 0..5: the addresses of the step block, of the compiled step and of its hand-off
+# table (low and high 32 bits each, 0: none); NATIVE_SLOT_VR + vr: the block slot of
+# variable vr (-1: not in the block).
+NATIVE_VR = 0x47500000
+NATIVE_SLOT_VR = 0x47510000
+
+
+def native_wanted() -> bool:
+    """Whether the C layer may step the compiled engine without Python: unless the
+    environment variable GEARPAIR_NATIVE_STEP is 0, off or no (the Python path)."""
+    return os.environ.get("GEARPAIR_NATIVE_STEP", "1").strip().lower() not in ("0", "off",
+                                                                                "no")
+
+
+def _block_property(slot: int, integer: bool) -> property:
+    """An FMU variable held in the slave's step block (inputs and outputs: the C layer and
+    the compiled step read and write them there)."""
+    if integer:
+        return property(lambda self: int(self._x[slot]),
+                        lambda self, v: self._x.__setitem__(slot, v))
+    return property(lambda self: self._x.item(slot),
+                    lambda self, v: self._x.__setitem__(slot, v))
 
 
 def _resources_folder(resources: str | None) -> str | None:
@@ -356,6 +374,9 @@ class GearPair(Fmi2Slave):
         self._gp = _import_gearpair(_resources_folder(self.resources))
         self._warn_foreign_package()
         self._spec = interface(self._gp)
+        self._sb = importlib.import_module(self._gp.__name__ + ".stepblock")
+        self._x = np.zeros(self._sb.N_X)  # the step block: inputs, step record (`stepblock`)
+        self._slots = self._block_slots()
         self._param_names = tuple(v["name"] for v in self._spec if v["causality"] == "parameter")
         self._get_params = operator.attrgetter(*self._param_names)
         for v in self._spec:
@@ -367,13 +388,13 @@ class GearPair(Fmi2Slave):
             else:
                 setattr(self, v["name"], float(start) if start is not None else 0.0)
             self._register(v)
-        self._fast_step = None  # `_make_fast_step`, after the first step
-        by_type = {t: {vr: v.name for vr, v in self.vars.items() if type(v) is c}
-                   for t, c in (("Real", Real), ("Integer", Integer))}
-        self._real_names = by_type["Real"]  # value reference -> attribute: `get_real`
-        self._integer_names = by_type["Integer"]
-        self._input_names = {vr: v.name for vr, v in self.vars.items()
-                             if type(v) is Real and v.causality == Fmi2Causality.input}
+        # value reference -> step block slot, of the variables held there (`_block_slots`)
+        self._real_slots = {vr: self._slots[v.name] for vr, v in self.vars.items()
+                            if type(v) is Real and v.name in self._slots}
+        self._integer_slots = {vr: self._slots[v.name] for vr, v in self.vars.items()
+                               if type(v) is Integer and v.name in self._slots}
+        self._input_slots = {vr: k for vr, k in self._real_slots.items()
+                             if self.vars[vr].causality == Fmi2Causality.input}
         self._engine = None
         self._engine_key: tuple | None = None  # parameter values the engine was built with
         self._params_set = True  # a parameter was set since the last comparison with the key
@@ -420,8 +441,16 @@ class GearPair(Fmi2Slave):
         return self._get_params(self)
 
     def _build_engine(self):
-        """Validate the parameters and build the engine. Raises ValueError with a message
-        naming the offending parameter."""
+        """Validate the parameters and build the engine, the fast one stepping with this
+        slave's step block. Raises ValueError with a message naming the offending
+        parameter."""
+        engine = self._new_engine()
+        bind = getattr(engine, "bind_block", None)
+        if bind is not None:
+            bind(self._x)
+        return engine
+
+    def _new_engine(self):
         gp = self._gp
         params_mod = sys.modules[gp.__name__ + ".params"]
         effects_mod = sys.modules[gp.__name__ + ".effects"]
@@ -508,50 +537,35 @@ class GearPair(Fmi2Slave):
         return None
 
     def _values_of(self, summary=None) -> tuple:
-        """(values, figures) for `_copy_values` from the engine's `Outputs` and a step's
-        `StepSummary` (None: no step yet, the figures describe the instant t0)."""
+        """The step record (`stepblock.STEP_RECORD`'s order) from the engine's `Outputs` and
+        a step's `StepSummary` (None: no step yet, the figures describe the instant t0)."""
         o = self._engine.outputs()
         values = (o.dte, o.mesh_force, o.friction_force, o.contact_state, o.output_torque,
                   o.input_torque_reaction, o.input_torque, o.gear1_speed, o.gear2_speed,
                   o.sliding_velocity)
         if summary is None:
             cs = int(o.contact_state)
-            figures = (1.0 if cs == 2 else 0.0, 1.0 if cs == 0 else 0.0, o.mesh_force, 0, 0,
-                       1.0 if cs == 3 else 0.0, o.mesh_force, o.mesh_force)
-        else:
-            figures = (summary.stick_fraction, summary.separation_fraction,
-                       summary.mesh_force_max, summary.n_events, summary.n_steps,
-                       summary.back_fraction, summary.mesh_force_mean, summary.mesh_force_min)
-        return values, figures
+            return values + (1.0 if cs == 2 else 0.0, 1.0 if cs == 0 else 0.0, o.mesh_force,
+                             0, 0, 1.0 if cs == 3 else 0.0, o.mesh_force, o.mesh_force)
+        return values + (summary.stick_fraction, summary.separation_fraction,
+                         summary.mesh_force_max, summary.n_events, summary.n_steps,
+                         summary.back_fraction, summary.mesh_force_mean,
+                         summary.mesh_force_min)
 
-    def _copy_values(self, values, figures) -> None:
-        """Outputs from the `Outputs` values in field order (after time) and the step figures
-        in `StepSummary`'s order, as `FastEngine.advance_values` returns them
-        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps,
-        back_fraction, mesh_force_mean, mesh_force_min)."""
-        (self.dte, self.mesh_force, self.friction_force, cs, self.output_torque,
-         self.input_torque_reaction, self.input_torque, self.gear1_speed, self.gear2_speed,
-         self.sliding_velocity) = values
-        self.contact_state = int(cs)
-        (self.stick_fraction, self.separation_fraction, self.mesh_force_max,
-         self.n_events) = (float(figures[0]), float(figures[1]), float(figures[2]),
-                           int(figures[3]))
-        self.back_fraction, self.mesh_force_mean, self.mesh_force_min = (
-            float(figures[5]), float(figures[6]), float(figures[7]))
-
-    @staticmethod
-    def _not_finite(values, figures) -> str | None:
-        """Name of the first output that is not finite, or None (checked before anything is
-        shown, so a refused step leaves the outputs of the last good one)."""
-        if math.isfinite(sum(values) + figures[0] + figures[1] + figures[2] + figures[5]
-                         + figures[6] + figures[7]):
-            return None  # one check on the usual path (inf - inf is nan)
-        for name, v in zip(_VALUE_ORDER + _SUMMARY_FIELDS + _APPENDED_FIELDS,
-                           tuple(values) + tuple(figures[:3]) + tuple(figures[5:8]),
-                           strict=True):
-            if not math.isfinite(v):
-                return name
-        return None
+    def _block_slots(self) -> dict[str, int]:
+        """FMU variable -> slot of the step block, for the inputs and the outputs (the step
+        record's names are the outputs' names); makes each of them a property of the class
+        that reads and writes the block."""
+        sb = self._sb
+        slots = {"torque": sb.X_TORQUE, "speed": sb.X_SPEED, "load_speed": sb.X_LOAD}
+        outputs = {row[0]: row[1] for row in OUTPUTS + APPENDED_OUTPUTS}
+        slots.update((n, sb.X_REC + k) for k, n in enumerate(sb.STEP_RECORD) if n in outputs)
+        missing = set(outputs) - set(slots)
+        if missing:
+            raise RuntimeError(f"outputs {sorted(missing)} are not in the step record")
+        for name, k in slots.items():
+            setattr(type(self), name, _block_property(k, outputs.get(name) == "Integer"))
+        return slots
 
     def _error(self, msg: str) -> bool:
         self.log(msg, Fmi2Status.error)
@@ -576,7 +590,7 @@ class GearPair(Fmi2Slave):
             if msg is None:
                 self._engine.reset(t0=self._start_time, torque=float(self.torque),
                                    speed=float(self.speed), static=True)
-                self._copy_values(*self._values_of())
+                self._put_record(self._values_of())
                 self._stepped = False
                 return
         except Exception as e:  # noqa: BLE001
@@ -593,160 +607,155 @@ class GearPair(Fmi2Slave):
     def _load_speed(self) -> float | None:
         return float(self.load_speed) if self.load_speed_input else None
 
+    def _put_record(self, record) -> None:
+        """Show a step record (`stepblock.STEP_RECORD`'s order) in the output variables."""
+        x, k = self._x, self._sb.X_REC
+        x[k:k + len(record)] = record
+
     def do_step(self, current_time: float, step_size: float) -> bool:
+        """The FMU's doStep, whoever calls it: the C layer when it does not step the compiled
+        engine itself (`native_handoff`: the first step, another engine, the Python path
+        chosen, a step the compiled one refused or failed, which it rolled back).
+
+        Checks (a refusal is logged with status error and changes nothing), then one step of
+        the engine (`_advance`) from the state of the step start; a failure is logged with
+        status discard (fmi2Discard) and leaves the state of the step start and the outputs
+        of the last good step.
+        """
         try:
-            fast = self._fast_step
-            if fast is not None:
-                done = fast(current_time, step_size)
-                if done is not None:
-                    return done
-            done = self._do_step(float(current_time), float(step_size))
-            if done and fast is None:
-                self._fast_step = self._make_fast_step()
-            return done
+            t, h = float(current_time), float(step_size)
+            if self._poisoned:
+                return self._error(f"step refused: {self._poisoned}")
+            if not (math.isfinite(t) and math.isfinite(h)) or h <= 0.0:
+                return self._error(f"step refused: communication step size must be > 0 "
+                                   f"(currentCommunicationPoint = {t!r}, step size = {h!r})")
+            msg = self._ensure_engine()
+            if msg is not None:
+                return self._error(f"step refused: {msg}")
+            msg = self._check_inputs()
+            if msg is not None:
+                return self._error(f"step refused at t = {t:g} s: {msg}")
+            eng = self._engine
+            now = eng.time if self._stepped else self._start_time  # the first: startTime
+            if abs(t - now) > 1e-9 * max(1.0, abs(t), h):
+                return self._error(
+                    f"step refused: currentCommunicationPoint = {t!r} s does not match the "
+                    f"FMU's time {now!r} s (restore an FMU state to go back)")
+            snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
+            saved = snap() if snap is not None else eng.get_state()
+            try:
+                if not self._stepped:
+                    eng.reset(t0=t, torque=float(self.torque), speed=float(self.speed),
+                              static=True)
+                self._advance(eng, t, h)
+            except Exception as e:  # noqa: BLE001
+                kind = "" if isinstance(e, (ValueError, ArithmeticError)) else \
+                    f"{type(e).__name__}: "
+                msg = f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
+                if not self._restore_engine(saved):
+                    return self._error(msg + "; the engine state could not be restored, "
+                                       "further steps are refused")
+                # fmi2Discard: the state is that of the step start (lastSuccessfulTime)
+                self.log(msg + "; the state is that of the step start", Fmi2Status.discard)
+                return False
+            self._stepped = True
+            return True
         except Exception as e:  # noqa: BLE001 - never let an exception reach pythonfmu
             return self._error(f"internal error in do_step: {type(e).__name__}: {e}")
 
-    def _make_fast_step(self):
-        """The usual doStep of the fast engine as one closure, or None (another engine).
+    def _advance(self, eng, t: float, h: float) -> None:
+        """One step of the engine from t to t + h with the inputs of the step block; the
+        step record into the block. Raises (ValueError, ArithmeticError, RuntimeError with
+        the message of the step's failure) when the step failed or a value is not finite,
+        after which the caller restores the state of the step start."""
+        x, sb = self._x, self._sb
+        x[sb.X_LOADON] = 1.0 if self.load_speed_input else 0.0
+        native = getattr(eng, "native_step", None)
+        if native is not None:  # the compiled step, as the C layer calls it
+            x[sb.X_TCHK], x[sb.X_H], x[sb.X_TEND], x[sb.X_FMU] = t, h, t + h, 1.0
+            step, _, table = native()
+            code = step(table)
+            if code == sb.STEP_REFUSED:  # the checks above passed: the step ends too early
+                raise ValueError(f"t_end = {t + h!r} must be after the current time "
+                                 f"{eng.time!r}")
+            if code == sb.STEP_FAILED:
+                eng._raise_failure()
+            if code == sb.STEP_NONFINITE:
+                raise ArithmeticError(f"output {sb.STEP_RECORD[int(x[sb.X_BAD])]} is not "
+                                      "finite")
+            return
+        load_speed = self._load_speed()
+        torque, speed = float(self.torque), float(self.speed)
+        summary = eng.advance(t + h, torque, speed) if load_speed is None else \
+            eng.advance(t + h, torque, speed, load_speed)
+        record = self._values_of(summary)
+        for name, v in zip(sb.STEP_RECORD, record, strict=True):
+            if not math.isfinite(v):
+                raise ArithmeticError(f"output {name} is not finite")
+        self._put_record(record)
 
-        It takes the step when nothing needs a word: the engine built at initialization is
-        still the slave's, no parameter was set since, a step was done, the step size is
-        positive and finite, the communication point is the FMU's time and the inputs are
-        floats in range (`gearpair.engine.check_inputs`). It makes the same engine calls as
-        `_do_step` and so gives bit-identical outputs; it only skips the lookups and checks
-        made for the general case. Anything else, a failed or non-finite step included
-        (rolled back first), returns None and `_do_step` then handles the call and says why.
-        """
+    def native_handoff(self) -> tuple[int, int, int]:
+        """(step block, compiled step, hand-off table) addresses for the C layer, 0 for
+        none: the block while the Python path is not chosen (`native_wanted`); the step
+        while the fast engine runs and the next doStep needs nothing of Python (a step was
+        taken since initialization or the last restored state, none failed for good)."""
+        if not native_wanted():
+            return 0, 0, 0
+        block = int(self._x.ctypes.data)
         eng = self._engine
-        advance = getattr(eng, "advance_values", None)
-        snapshot, restore = getattr(eng, "snapshot", None), getattr(eng, "restore", None)
-        if advance is None or snapshot is None or restore is None:
-            return None
-        outputs = eng.output_values
-        with_load = bool(self.load_speed_input)
-        isfinite, inf = math.isfinite, math.inf
-
-        def step(t, h):
-            if self._engine is not eng or self._params_set or self._poisoned or \
-                    not self._stepped:
-                return None
-            torque, speed = self.torque, self.speed
-            if not (type(t) is float and type(h) is float and 0.0 < h < inf and
-                    type(torque) is float and type(speed) is float and
-                    abs(torque) <= 1e6 and abs(speed) <= 2e4):
-                return None
-            load = None
-            if with_load:
-                load = self.load_speed
-                if type(load) is not float or not abs(load) <= 2e4:
-                    return None
-            if not abs(t - eng.time) <= 1e-9 * max(1.0, abs(t), h):
-                return None
-            saved = snapshot()
-            try:
-                f = advance(t + h, torque, speed, load)
-                values = outputs().tolist()
-                ok = isfinite(sum(values) + f[0] + f[1] + f[2] + f[5] + f[6] + f[7])
-            except Exception:  # noqa: BLE001 - `_do_step` repeats the step and reports
-                ok = False
-            if not ok:
-                restore(saved)
-                return None
-            (self.dte, self.mesh_force, self.friction_force, cs, self.output_torque,
-             self.input_torque_reaction, self.input_torque, self.gear1_speed,
-             self.gear2_speed, self.sliding_velocity) = values
-            self.contact_state = int(cs)
-            self.stick_fraction, self.separation_fraction = float(f[0]), float(f[1])
-            self.mesh_force_max, self.n_events = float(f[2]), int(f[3])
-            # advance_values: ..., n_steps, back_fraction, mesh_force_mean, mesh_force_min
-            self.back_fraction, self.mesh_force_mean, self.mesh_force_min = (
-                float(f[5]), float(f[6]), float(f[7]))
-            return True
-
-        return step
+        native = getattr(eng, "native_step", None)
+        if native is None or not self._stepped or self._poisoned or self._params_set or \
+                eng.block is not self._x:
+            return block, 0, 0
+        _, step, table = native()
+        return block, step, table
 
     # pythonfmu's getters and setters call one Python function per variable; these serve the
-    # per-step calls (outputs, inputs) straight from the instance's attributes and leave
-    # everything else (parameters with their setters, wrong types) to pythonfmu. (Plain loops:
-    # cheaper than comprehensions for a handful of values.)
+    # inputs and outputs straight from the step block and leave everything else (parameters
+    # with their setters, wrong types) to pythonfmu. (Plain loops: cheaper than
+    # comprehensions for a handful of values.)
     def get_real(self, vrs):
-        d, names, out = self.__dict__, self._real_names, []
+        x, slots, out = self._x, self._real_slots, []
         for vr in vrs:
-            n = names.get(vr)
-            if n is None:
+            k = slots.get(vr)
+            if k is None:
                 return super().get_real(vrs)
-            out.append(d[n])
+            out.append(x.item(k))
         return out
 
     def get_integer(self, vrs):
-        d, names, out = self.__dict__, self._integer_names, []
+        if vrs and vrs[0] >= NATIVE_VR:
+            return self._native_answer(vrs)
+        x, slots, out = self._x, self._integer_slots, []
         for vr in vrs:
-            n = names.get(vr)
-            if n is None:
+            k = slots.get(vr)
+            if k is None:
                 return super().get_integer(vrs)
-            out.append(d[n])
+            out.append(int(x[k]))
+        return out
+
+    def _native_answer(self, vrs) -> list[int]:
+        """`get_integer` of the C layer's hand-off value references (`NATIVE_VR`): the
+        addresses of `native_handoff` as signed 32-bit halves, or block slots."""
+        words = []
+        for a in self.native_handoff():
+            words += [a & 0xFFFFFFFF, a >> 32]
+        slots = {**self._real_slots, **self._integer_slots}
+        out = []
+        for vr in vrs:
+            w = words[vr - NATIVE_VR] if vr - NATIVE_VR < len(words) else \
+                slots.get(vr - NATIVE_SLOT_VR, -1)
+            out.append(w - (1 << 32) if w >= 1 << 31 else w)
         return out
 
     def set_real(self, vrs, values):
-        d, names = self.__dict__, self._input_names
-        for vr, x in zip(vrs, values):  # noqa: B905 - as pythonfmu (a keyword costs here)
-            n = names.get(vr)
-            if n is None:  # pythonfmu sets them all again (the inputs to the same values)
+        x, slots = self._x, self._input_slots
+        for vr, v in zip(vrs, values):  # noqa: B905 - as pythonfmu (a keyword costs here)
+            k = slots.get(vr)
+            if k is None:  # pythonfmu sets them all again (the inputs to the same values)
                 return super().set_real(vrs, values)
-            d[n] = x
+            x[k] = v
         return None
-
-    def _do_step(self, t: float, h: float) -> bool:
-        if self._poisoned:
-            return self._error(f"step refused: {self._poisoned}")
-        if not (math.isfinite(t) and math.isfinite(h)) or h <= 0.0:
-            return self._error(f"step refused: communication step size must be > 0 "
-                               f"(currentCommunicationPoint = {t!r}, step size = {h!r})")
-        msg = self._ensure_engine()
-        if msg is not None:
-            return self._error(f"step refused: {msg}")
-        msg = self._check_inputs()
-        if msg is not None:
-            return self._error(f"step refused at t = {t:g} s: {msg}")
-        eng = self._engine
-        torque, speed = float(self.torque), float(self.speed)
-        snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
-        saved = snap() if snap is not None else eng.get_state()
-        now = eng.time if self._stepped else self._start_time  # the first step: startTime
-        if abs(t - now) > 1e-9 * max(1.0, abs(t), h):
-            return self._error(
-                f"step refused: currentCommunicationPoint = {t!r} s does not match the "
-                f"FMU's time {now!r} s (restore an FMU state to go back)")
-        try:
-            if not self._stepped:
-                eng.reset(t0=t, torque=torque, speed=speed, static=True)
-            load_speed = self._load_speed()
-            fast = getattr(eng, "advance_values", None)
-            if fast is not None:  # the fast engine's plain-number path (inputs checked above)
-                figures = fast(t + h, torque, speed, load_speed)
-                values = eng.output_values().tolist()
-            else:
-                summary = eng.advance(t + h, torque, speed) if load_speed is None else \
-                    eng.advance(t + h, torque, speed, load_speed)
-                values, figures = self._values_of(summary)
-            bad = self._not_finite(values, figures)
-            if bad is not None:
-                raise ArithmeticError(f"output {bad} is not finite")
-        except Exception as e:  # noqa: BLE001
-            kind = "" if isinstance(e, (ValueError, ArithmeticError)) else \
-                f"{type(e).__name__}: "
-            restored = self._restore_engine(saved)
-            msg = f"step from t = {t:g} s with h = {h:g} s failed: {kind}{e}"
-            if not restored:
-                return self._error(msg + "; the engine state could not be restored, further "
-                                   "steps are refused")
-            # fmi2Discard: the state is that of the step start (lastSuccessfulTime)
-            self.log(msg + "; the state is that of the step start", Fmi2Status.discard)
-            return False
-        self._copy_values(values, figures)
-        self._stepped = True
-        return True
 
     def _restore_engine(self, saved) -> bool:
         try:

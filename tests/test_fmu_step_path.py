@@ -1,12 +1,14 @@
-"""The slave's per-step fast path (`GearPair._make_fast_step`, the get/set overrides) against
-its general path: the same call sequence through two instances of the built FMU's slave
-class, one with the fast path switched off, gives bit-identical values of every variable
-after every call, refusals and state restores included."""
+"""The FMU's native step (the C layer runs the compiled step without Python) against its
+Python path (``GEARPAIR_NATIVE_STEP=0``: every call through pythonfmu into the slave): the
+same call sequence through the built FMU gives bit-identical values of every variable after
+every call, refusals, failed steps and state restores included; and the slave's own getters
+and setters."""
 
 from __future__ import annotations
 
 import importlib.util
 import math
+import sys
 from pathlib import Path
 
 import pytest
@@ -14,6 +16,8 @@ import pytest
 fmpy = pytest.importorskip("fmpy")
 pytest.importorskip("pythonfmu")
 pytest.importorskip("numba")
+
+from fmu_slave import LoggingSlave  # noqa: E402
 
 pytestmark = pytest.mark.fmu
 RPM = 2.0 * math.pi / 60.0
@@ -29,65 +33,90 @@ def slave_class(fmu_path, tmp_path_factory):
     return mod.GearPair, str(unzip / "resources")
 
 
-def _values(s) -> tuple:
-    reals = [vr for vr, v in s.vars.items() if type(v).__name__ == "Real"]
-    ints = [vr for vr, v in s.vars.items() if type(v).__name__ == "Integer"]
-    return tuple(x.hex() for x in map(float, s.get_real(reals))), tuple(s.get_integer(ints))
+def _sequence(md, unzip, load_speed_input: bool) -> tuple[list, int]:
+    """Run one instance through a fixed call sequence; (every value after every call, the
+    number of doSteps the slave's Python ``do_step`` took)."""
+    g = LoggingSlave(md, unzip, name="seq", logging_on=False)
+    f, vr = g.fmu, g.vr
+    reals = [v.valueReference for v in md.modelVariables if v.type == "Real"]
+    ints = [v.valueReference for v in md.modelVariables if v.type == "Integer"]
+    cls = sys.modules["GearPair"].GearPair  # the slave class pythonfmu imported
+    calls = {"n": 0}
+    python_step = cls.do_step
 
+    def counted(self, t, h):
+        calls["n"] += 1
+        return python_step(self, t, h)
 
-@pytest.mark.parametrize("load_speed_input", [False, True])
-def test_fast_path_is_bit_identical_to_general_path(slave_class, load_speed_input):
-    cls, resources = slave_class
-    fast, general = (cls(instance_name=n, resources=resources) for n in ("fast", "general"))
-    general._make_fast_step = lambda: None  # the general `_do_step` for every call
-    calls = {"general": 0}
-    do_step = fast._do_step
+    def values():
+        return (tuple(x.hex() for x in f.getReal(reals)), tuple(f.getInteger(ints)))
 
-    def counted(t, h):
-        calls["general"] += 1
-        return do_step(t, h)
-
-    fast._do_step = counted
-    vr = {v.name: k for k, v in fast.vars.items()}
-    vin = [vr["torque"], vr["speed"], vr["load_speed"]]
-    results = {}
-    for s in (fast, general):
+    cls.do_step = counted
+    try:
         out = []
-        s.setup_experiment(0.0, None, None)
-        s.set_boolean([vr["load_speed_input"]], [load_speed_input])
-        s.set_real(vin, [3900.0, 100 * RPM, 100 * RPM / 1.5])
-        s.enter_initialization_mode()
-        s.exit_initialization_mode()
-        out.append(_values(s))
-        t, saved = 0.0, None
+        f.setupExperiment(startTime=0.0)
+        f.setBoolean([vr["load_speed_input"]], [load_speed_input])
+        vin = [vr["torque"], vr["speed"], vr["load_speed"]]
+        f.setReal(vin, [3900.0, 100 * RPM, 100 * RPM / 1.5])
+        f.enterInitializationMode()
+        f.exitInitializationMode()
+        out.append(values())
+        t = t_saved = t_blob = 0.0
+        saved = blob = None
         for k in range(80):
             h = (1e-4, 3e-4, 1e-3)[k % 3]
             u = [3900.0 + 40.0 * k, (100 + k) * RPM, (100 + k) * RPM / 1.5]
             if k == 10:
-                u[0] = math.nan  # refused: discard, outputs kept
-            if k == 12:
-                u[1] = 3e4  # out of range
-            s.set_real(vin, u)
+                u[0] = math.nan  # refused by the C layer: the old torque is kept
+            try:
+                f.setReal(vin, u)
+                out.append("set")
+            except fmpy.fmi1.FMICallException:
+                out.append(("refused", values()))
             if k == 15:
-                saved = s._get_fmu_state()
-            ok = s.do_step(t if k != 20 else t + 1.0, h)  # k = 20: a wrong time, refused
-            out.append((ok, _values(s)))
-            if ok:
+                saved, t_saved = f.getFMUstate(), t
+            if k == 30:
+                blob, t_blob = f.serializeFMUstate(f.getFMUstate()), t
+            try:
+                f.doStep(t if k != 20 else t + 1.0, h)  # k = 20: a wrong time, refused
+                ok = True
                 t += h
+            except fmpy.fmi1.FMICallException:
+                ok = False
+            out.append((ok, values()))
             if k == 45:  # back to the state saved at k = 15
-                s._set_fmu_state(saved)
-                t = s._engine.time
-                out.append(_values(s))
-        results[s.instance_name] = out
-    assert results["fast"] == results["general"]
-    steps = [r for r in results["fast"][1:] if isinstance(r[0], bool)]
-    assert sum(ok for ok, _ in steps) == 77
-    names = [v.name for v in fast.vars.values() if type(v).__name__ == "Real"]
+                f.setFMUstate(saved)
+                t = t_saved
+                out.append(values())
+            if k == 60:  # and to the state serialized at k = 30
+                f.setFMUstate(f.deSerializeFMUstate(blob))
+                t = t_blob
+                out.append(values())
+        f.terminate()
+        f.freeInstance()
+        return out, calls["n"]
+    finally:
+        cls.do_step = python_step
+
+
+@pytest.mark.parametrize("load_speed_input", [False, True])
+def test_native_step_is_bit_identical_to_python_path(fmu_path, md, tmp_path, monkeypatch,
+                                                     load_speed_input):
+    unzip = fmpy.extract(str(fmu_path), unzipdir=str(tmp_path / "fmu"))
+    monkeypatch.setenv("GEARPAIR_NATIVE_STEP", "1")
+    native, native_calls = _sequence(md, unzip, load_speed_input)
+    monkeypatch.setenv("GEARPAIR_NATIVE_STEP", "0")
+    python, python_calls = _sequence(md, unzip, load_speed_input)
+    assert native == python
+    steps = [r for r in native if isinstance(r, tuple) and isinstance(r[0], bool)]
+    assert sum(ok for ok, _ in steps) == 79  # all but the one at a wrong time
+    # Python stepped every step on its path; natively only the first, the refused one and
+    # the first after each restored state
+    assert python_calls == 80
+    assert native_calls <= 5, native_calls
+    names = [v.name for v in md.modelVariables if v.type == "Real"]
     stick = [float.fromhex(r[names.index("stick_fraction")]) for _, (r, _) in steps]
     assert max(stick) > 0.1  # the compared steps include stick-slip switches
-    # the general path: the first step, the three refusals and the step after the restore
-    assert calls["general"] <= 6, calls
-    assert fast._fast_step is not None and general._fast_step is None
 
 
 def test_getters_fall_back_to_pythonfmu(slave_class):

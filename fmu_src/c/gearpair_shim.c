@@ -104,6 +104,31 @@ typedef struct State {
 } State;
 #define STATE_MAGIC 0x47505354u
 
+/* The native step (issue 25): the slave's step block (its inputs and the step record, the
+ * outputs) and the fast engine's compiled step, handed over by the slave after
+ * initialization and after every call that went through Python (`native_fetch`). While
+ * `step` is set, fmi2SetReal of inputs, fmi2DoStep and fmi2Get* of inputs and outputs run
+ * here without Python (no GIL, nothing shared between instances); anything else, and a step
+ * the compiled one refuses or fails (after rolling it back), goes through the slave, which
+ * takes the same step with the same compiled code and says why. The block and the engine
+ * belong to the slave and live until fmi2Reset or fmi2FreeInstance. */
+typedef struct {
+    double *x;                          /* the step block (NULL: everything through Python) */
+    int64_t (*step)(int64_t table);     /* the compiled step (NULL: doStep through Python) */
+    int64_t table;                      /* its hand-off table */
+    signed char slot[GP_NVARS];         /* block slot of each GP_VARS entry, -1: none */
+    int have_slots;
+} Native;
+
+/* Slots of the step block (model/gearpair/stepblock.py) that this layer writes. */
+enum { X_TEND, X_TCHK, X_H, X_TORQUE, X_SPEED, X_LOAD, X_LOADON, X_FMU, X_BAD };
+/* The slave's answers to fmi2GetInteger of these value references (none of them is in the
+ * modelDescription): NATIVE_VR + 0..5 the block, step and table addresses (low and high 32
+ * bits); NATIVE_SLOT_VR + vr the block slot of variable vr (GearPair.py, `native_handoff`). */
+#define NATIVE_VR 0x47500000u
+#define NATIVE_SLOT_VR 0x47510000u
+#define NATIVE_MAX 64 /* values per fmi2Get/Set call served from the block */
+
 typedef struct {
     fmi2Component inner;
     fmi2CallbackFunctions host;
@@ -126,6 +151,7 @@ typedef struct {
     } refused[GP_NVARS];
     int n_refused;
     int late_said; /* the message about a finalized interpreter was given */
+    Native nat;
 } Shim;
 
 /* -- logging ---------------------------------------------------------------------------- */
@@ -646,6 +672,9 @@ static fmi2Status settle(Shim *s, fmi2Status st) {
 static void begin(Shim *s) { s->worst = fmi2OK; }
 
 static const GpVar *find_var(unsigned vr, char type) {
+    /* value references are the variables' indices (pythonfmu numbers them in order) */
+    if (vr < GP_NVARS && GP_VARS[vr].vr == vr) return GP_VARS[vr].type == type ? &GP_VARS[vr]
+                                                                                : NULL;
     for (int i = 0; i < GP_NVARS; i++)
         if (GP_VARS[i].vr == vr && GP_VARS[i].type == type) return &GP_VARS[i];
     return NULL;
@@ -876,6 +905,62 @@ static int resource_folder(const char *uri, char *out, size_t n) {
     return 0;
 }
 
+/* -- the native step ------------------------------------------------------------------- */
+
+/* Ask the slave for the step block and the compiled step (after a call through Python may
+ * have changed either: initialization, a step, a restored state). A slave that answers
+ * nothing usable leaves everything to Python. */
+static void native_fetch(Shim *s) {
+    fmi2ValueReference vr[6];
+    fmi2Integer w[6] = {0};
+    for (unsigned k = 0; k < 6; k++) vr[k] = NATIVE_VR + k;
+    s->nat.x = NULL;
+    s->nat.step = NULL;
+    fmi2Status worst = s->worst;
+    if (inner.get_int(s->inner, vr, 6, w) > fmi2Warning) {
+        s->worst = worst;
+        return;
+    }
+    uint64_t a[3];
+    for (int k = 0; k < 3; k++)
+        a[k] = (uint64_t)(uint32_t)w[2 * k] | (uint64_t)(uint32_t)w[2 * k + 1] << 32;
+    if (!a[0]) return;
+    if (!s->nat.have_slots) {
+        fmi2ValueReference q[GP_NVARS];
+        fmi2Integer slot[GP_NVARS];
+        for (int i = 0; i < GP_NVARS; i++) q[i] = NATIVE_SLOT_VR + GP_VARS[i].vr;
+        if (inner.get_int(s->inner, q, GP_NVARS, slot) > fmi2Warning) {
+            s->worst = worst;
+            return;
+        }
+        for (int i = 0; i < GP_NVARS; i++)
+            s->nat.slot[i] = GP_VARS[i].type != 'B' && slot[i] >= 0 && slot[i] < 127
+                                 ? (signed char)slot[i] : -1;
+        s->nat.have_slots = 1;
+    }
+    s->nat.x = (double *)(uintptr_t)a[0];
+    s->nat.step = (int64_t(*)(int64_t))(uintptr_t)a[1];
+    s->nat.table = (int64_t)a[2];
+}
+
+static void native_drop(Shim *s) {
+    s->nat.x = NULL;
+    s->nat.step = NULL;
+}
+
+/* The block slots of value references vr[0..nvr) of this type, or 0 when one is not there
+ * (then the call goes to the slave). */
+static int native_slots(Shim *s, const fmi2ValueReference vr[], size_t nvr, char type,
+                        int slot[]) {
+    if (!s->nat.x || nvr > NATIVE_MAX) return 0;
+    for (size_t i = 0; i < nvr; i++) {
+        const GpVar *v = find_var(vr[i], type);
+        if (!v || s->nat.slot[v - GP_VARS] < 0) return 0;
+        slot[i] = s->nat.slot[v - GP_VARS];
+    }
+    return 1;
+}
+
 /* ======================================================================================== */
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
@@ -951,6 +1036,7 @@ EXPORT void fmi2FreeInstance(fmi2Component c) {
         st->magic = 0;
         free(st);
     }
+    native_drop(s);
     if (s->mode != M_FATAL && !gone) flush_log(s);
     pthread_mutex_lock(&g_lock);
     if (!gone) inner.free_instance(s->inner);
@@ -1013,7 +1099,10 @@ EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     fmi2Status st = settle(s, inner.exit_init(s->inner));
     /* refused (e.g. a combination of parameters): the instance stays in initialization
      * mode, so the master may correct a parameter and call this again */
-    if (st <= fmi2Warning) s->mode = M_STEP;
+    if (st <= fmi2Warning) {
+        s->mode = M_STEP;
+        native_fetch(s);
+    }
     s->last_successful_time = NAN;
     return st;
 }
@@ -1034,6 +1123,7 @@ EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
 EXPORT fmi2Status fmi2Reset(fmi2Component c) {
     Shim *s = live(c);
     if (!s || !allowed(s, ANY_LIVE, "fmi2Reset")) return fmi2Error;
+    native_drop(s); /* the slave's block and engine go with it */
     begin(s);
     fmi2Status st = settle(s, inner.reset(s->inner));
     if (st <= fmi2Warning) {
@@ -1054,6 +1144,11 @@ EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], si
     if (!s || !allowed(s, GET_MODES, "fmi2GetReal")) return fmi2Error;
     if (!check_refs(s, "fmi2GetReal", vr, nvr, value, 'R')) return fmi2Error;
     if (!nvr) return fmi2OK;
+    int slot[NATIVE_MAX];
+    if (native_slots(s, vr, nvr, 'R', slot)) {
+        for (size_t i = 0; i < nvr; i++) value[i] = s->nat.x[slot[i]];
+        return fmi2OK;
+    }
     begin(s);
     return settle(s, inner.get_real(s->inner, vr, nvr, value));
 }
@@ -1064,6 +1159,11 @@ EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[],
     if (!s || !allowed(s, GET_MODES, "fmi2GetInteger")) return fmi2Error;
     if (!check_refs(s, "fmi2GetInteger", vr, nvr, value, 'I')) return fmi2Error;
     if (!nvr) return fmi2OK;
+    int slot[NATIVE_MAX];
+    if (native_slots(s, vr, nvr, 'I', slot)) {
+        for (size_t i = 0; i < nvr; i++) value[i] = (fmi2Integer)s->nat.x[slot[i]];
+        return fmi2OK;
+    }
     begin(s);
     return settle(s, inner.get_int(s->inner, vr, nvr, value));
 }
@@ -1103,6 +1203,11 @@ EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], si
             return refuse(s, fn, vr, nvr, i, 'R', value);
     }
     if (!nvr) return fmi2OK;
+    int slot[NATIVE_MAX];
+    if (native_slots(s, vr, nvr, 'R', slot)) { /* inputs: the slave reads them there */
+        for (size_t i = 0; i < nvr; i++) s->nat.x[slot[i]] = value[i];
+        return fmi2OK;
+    }
     begin(s);
     return taken(s, vr, nvr, 'R', settle(s, inner.set_real(s->inner, vr, nvr, value)));
 }
@@ -1162,8 +1267,22 @@ EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolea
             "state is unchanged", t, h);
         return fmi2Error;
     }
+    if (s->nat.step) {
+        double *x = s->nat.x;
+        x[X_TCHK] = t;
+        x[X_H] = h;
+        x[X_TEND] = t + h;
+        x[X_FMU] = 1.0;
+        if (s->nat.step(s->nat.table) == 0) {
+            s->last_successful_time = t + h;
+            return fmi2OK;
+        }
+        /* refused (nothing changed) or failed (rolled back to the step start): the slave
+         * takes the step again and says why */
+    }
     begin(s);
     fmi2Status st = settle(s, inner.do_step(s->inner, t, h, no_set));
+    if (s->mode == M_STEP && (s->nat.x || s->nat.step)) native_fetch(s);
     /* The slave refuses a step (wrong communication point, invalid input: fmi2Error) or
      * fails inside it (fmi2Discard) only after restoring the state of the step start, so
      * the instance stays in step mode either way: the master may repeat the step with
@@ -1300,6 +1419,8 @@ EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     begin(s);
     fmi2Status r = settle(s, inner.set_state(s->inner, st->inner));
     if (r <= fmi2Warning) s->mode = st->mode; /* refused: the slave kept its state */
+    if (s->nat.x && s->mode == M_STEP) native_fetch(s); /* the engine may be another */
+    if (s->mode != M_STEP) native_drop(s);
     return r;
 }
 

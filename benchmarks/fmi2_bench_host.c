@@ -1,5 +1,5 @@
 /* Timing host for `gearpair bench`: what one co-simulation step of an FMI 2.0 FMU costs in a
- * C master, and what its first start costs.
+ * C master, from which thread, and what its first start costs.
  *
  * It loads an extracted FMU with dlopen, instantiates it once (timed), initializes it with
  * the given start values (timed), takes a first step (timed: the first step may load or
@@ -7,26 +7,37 @@
  *
  *     fmi2SetReal(inputs) ; fmi2DoStep(t, H) ; fmi2GetReal(outputs)
  *
- * on the wall clock (CLOCK_MONOTONIC) and on the process CPU clock. It prints one line
+ * on the wall clock (CLOCK_MONOTONIC) and on the stepping thread's CPU clock. It prints one
+ * line
  *
  *     RESULT {"instantiate_s": ..., "initialize_s": ..., "first_step_s": ...,
- *             "block_wall_s": [...], "block_cpu_s": [...], "steps_per_block": N, "ok": 1}
+ *             "block_wall_s": [...], "block_cpu_s": [...], "steps_per_block": N, "ok": 1,
+ *             "threads": MODE, "instances": [{"block_wall_s": [...], "digest": ...}, ...],
+ *             "total_wall_s": ...}
  *
  * and flushes it before anything else can go wrong: the caller reads that line whatever the
- * exit status (pythonfmu's binary may crash while the process exits).
+ * exit status. ``digest`` is a hash of the bits of every output of every timed step (equal
+ * digests: equal results).
+ *
+ * Threads (-t MODE): "main" (default) steps in the thread that instantiated; "worker" in
+ * another thread (instantiated and initialized in the main thread, as a master with a
+ * thread pool does); "pair" instantiates two instances and steps them at once in two
+ * threads; "serial" the same two instances one after the other in the main thread.
+ * ``block_wall_s`` is the first instance's; ``total_wall_s`` spans all timed steps.
  *
  * Build (the FMI 2 headers ship with fmpy, in fmpy/c-code):
- *     gcc -O2 -std=c99 -I"$FMPY/c-code" -o fmi2_bench_host fmi2_bench_host.c -ldl
+ *     gcc -O2 -std=c99 -I"$FMPY/c-code" -o fmi2_bench_host fmi2_bench_host.c -ldl -lpthread
  * Usage:
- *     fmi2_bench_host DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS [-r|-i|-b VR=V]...
+ *     fmi2_bench_host DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS
+ *                     [-r|-i|-b VR=V]... [-t main|worker|pair|serial]
  *   DIR the extracted FMU; IN_VRS, OUT_VRS comma-separated Real value references; IN_VALUES
  *   the inputs' values (comma separated, held constant); -r / -i / -b set a Real / Integer /
  *   Boolean (0 or 1) start value before initialization (repeatable).
- * A pythonfmu FMU needs LD_PRELOAD=<libpython.so> and PYTHONPATH=<site-packages>
- * (docs/hosts.md).
  */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE
 #include <dlfcn.h>
+#include <pthread.h>
+#include <stdint.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -85,6 +96,51 @@ static int fail(const char *what, int status) {
     return 1;
 }
 
+/* One instance and its timed loop (`steps`, run in whichever thread the mode says). */
+typedef struct {
+    fmi2Component c;
+    fmi2SetRealTYPE *set_real;
+    fmi2DoStepTYPE *do_step;
+    fmi2GetRealTYPE *get_real;
+    const unsigned *in_vr, *out_vr;
+    const double *in_val;
+    double out_val[MAXV], h, wall[MAXB], cpu[MAXB];
+    int n_in, n_out, status;
+    long n, blocks;
+    uint64_t digest; /* FNV-1a over the bits of every output of every timed step */
+} Run;
+
+static void *steps(void *arg) {
+    Run *r = arg;
+    fmi2Component c = r->c;
+    int st = fmi2OK;
+    for (long b = 0; b < r->blocks && st <= fmi2Warning; b++) {
+        double w0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_THREAD_CPUTIME_ID);
+        for (long k = 0; k < r->n; k++) {
+            double t = (double)(b * r->n + k + 1) * r->h; /* the master's grid, i*h */
+            st = r->set_real(c, r->in_vr, (size_t)r->n_in, r->in_val);
+            if (st <= fmi2Warning) st = r->do_step(c, t, r->h, fmi2True);
+            if (st <= fmi2Warning) st = r->get_real(c, r->out_vr, (size_t)r->n_out, r->out_val);
+            if (st > fmi2Warning) break;
+            for (int j = 0; j < r->n_out; j++) {
+                uint64_t bits;
+                memcpy(&bits, &r->out_val[j], sizeof bits);
+                r->digest = (r->digest ^ bits) * 1099511628211ull;
+            }
+        }
+        r->wall[b] = now(CLOCK_MONOTONIC) - w0;
+        r->cpu[b] = now(CLOCK_THREAD_CPUTIME_ID) - c0;
+    }
+    r->status = st;
+    return NULL;
+}
+
+static void print_times(const char *key, const double *v, long n) {
+    printf("\"%s\": [", key);
+    for (long b = 0; b < n; b++) printf("%s%.9g", b ? ", " : "", v[b]);
+    printf("]");
+}
+
 int main(int argc, char **argv) {
     if (argc < 10) {
         fprintf(stderr, "usage: %s DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS "
@@ -95,7 +151,7 @@ int main(int argc, char **argv) {
     double h = strtod(argv[4], NULL), buf[MAXV];
     long n = strtol(argv[5], NULL, 10), blocks = strtol(argv[6], NULL, 10);
     unsigned in_vr[MAXV], out_vr[MAXV], start_vr[MAXV], int_vr[MAXV], bool_vr[MAXV];
-    double in_val[MAXV], out_val[MAXV], start_val[MAXV];
+    double in_val[MAXV], start_val[MAXV];
     int int_val[MAXV], n_start = 0, n_int = 0, n_bool = 0;
     fmi2Boolean bool_val[MAXV];
     int n_in = numbers(argv[7], buf);
@@ -105,7 +161,12 @@ int main(int argc, char **argv) {
     if (n_out < 0) return 2;
     for (int k = 0; k < n_out; k++) out_vr[k] = (unsigned)buf[k];
     if (blocks < 1 || blocks > MAXB || n < 1 || !(h > 0.0)) return 2;
+    const char *mode = "main";
     for (int a = 10; a + 1 < argc; a += 2) {
+        if (!strcmp(argv[a], "-t")) {
+            mode = argv[a + 1];
+            continue;
+        }
         const char *eq = strchr(argv[a + 1], '=');
         if (!eq) return 2;
         if (!strcmp(argv[a], "-r") && n_start < MAXV) {
@@ -147,53 +208,84 @@ int main(int argc, char **argv) {
     fmi2FreeInstanceTYPE *free_instance = (fmi2FreeInstanceTYPE *)need(lib, "fmi2FreeInstance");
 
     fmi2CallbackFunctions callbacks = {log_message, calloc, free, NULL, NULL};
-    double t0 = now(CLOCK_MONOTONIC);
-    fmi2Component c = instantiate("bench", fmi2CoSimulation, guid, resources, &callbacks,
-                                  fmi2False, fmi2False);
-    double t1 = now(CLOCK_MONOTONIC);
-    if (!c) return fail("fmi2Instantiate", -1);
-    int st;
-    if ((st = setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0)) > fmi2Warning)
-        return fail("fmi2SetupExperiment", st);
-    if (n_start && (st = set_real(c, start_vr, (size_t)n_start, start_val)) > fmi2Warning)
-        return fail("fmi2SetReal (start values)", st);
-    if (n_int && (st = set_integer(c, int_vr, (size_t)n_int, int_val)) > fmi2Warning)
-        return fail("fmi2SetInteger (start values)", st);
-    if (n_bool && (st = set_boolean(c, bool_vr, (size_t)n_bool, bool_val)) > fmi2Warning)
-        return fail("fmi2SetBoolean (start values)", st);
-    if ((st = enter_init(c)) > fmi2Warning) return fail("fmi2EnterInitializationMode", st);
-    if ((st = exit_init(c)) > fmi2Warning) return fail("fmi2ExitInitializationMode", st);
-    double t2 = now(CLOCK_MONOTONIC);
-    double t = 0.0;
-    if ((st = set_real(c, in_vr, (size_t)n_in, in_val)) > fmi2Warning)
-        return fail("fmi2SetReal (inputs)", st);
-    if ((st = do_step(c, t, h, fmi2True)) > fmi2Warning) return fail("fmi2DoStep", st);
-    double t3 = now(CLOCK_MONOTONIC);
-    t += h;
-
-    double wall[MAXB], cpu[MAXB];
-    for (long b = 0; b < blocks; b++) {
-        double w0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_PROCESS_CPUTIME_ID);
-        for (long k = 0; k < n; k++) {
-            st = set_real(c, in_vr, (size_t)n_in, in_val);
-            if (st <= fmi2Warning) st = do_step(c, t, h, fmi2True);
-            if (st <= fmi2Warning) st = get_real(c, out_vr, (size_t)n_out, out_val);
-            if (st > fmi2Warning) return fail("the step loop", st);
-            t = (double)(b * n + k + 2) * h;  /* the master's grid, n*h, not a running sum */
-        }
-        wall[b] = now(CLOCK_MONOTONIC) - w0;
-        cpu[b] = now(CLOCK_PROCESS_CPUTIME_ID) - c0;
+    int n_inst = (!strcmp(mode, "pair") || !strcmp(mode, "serial")) ? 2 : 1;
+    Run run[2];
+    double t0 = now(CLOCK_MONOTONIC), t1 = t0, t2 = t0, t3 = t0;
+    for (int i = 0; i < n_inst; i++) {
+        Run *r = &run[i];
+        memset(r, 0, sizeof *r);
+        r->set_real = set_real;
+        r->do_step = do_step;
+        r->get_real = get_real;
+        r->in_vr = in_vr;
+        r->in_val = in_val;
+        r->out_vr = out_vr;
+        r->n_in = n_in;
+        r->n_out = n_out;
+        r->h = h;
+        r->n = n;
+        r->blocks = blocks;
+        r->digest = 1469598103934665603ull;
+        double a0 = now(CLOCK_MONOTONIC);
+        r->c = instantiate(i ? "bench2" : "bench", fmi2CoSimulation, guid, resources,
+                           &callbacks, fmi2False, fmi2False);
+        if (!i) t1 = now(CLOCK_MONOTONIC), t0 = a0;
+        fmi2Component c = r->c;
+        if (!c) return fail("fmi2Instantiate", -1);
+        int st;
+        if ((st = setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0)) > fmi2Warning)
+            return fail("fmi2SetupExperiment", st);
+        if (n_start && (st = set_real(c, start_vr, (size_t)n_start, start_val)) > fmi2Warning)
+            return fail("fmi2SetReal (start values)", st);
+        if (n_int && (st = set_integer(c, int_vr, (size_t)n_int, int_val)) > fmi2Warning)
+            return fail("fmi2SetInteger (start values)", st);
+        if (n_bool && (st = set_boolean(c, bool_vr, (size_t)n_bool, bool_val)) > fmi2Warning)
+            return fail("fmi2SetBoolean (start values)", st);
+        if ((st = enter_init(c)) > fmi2Warning) return fail("fmi2EnterInitializationMode", st);
+        if ((st = exit_init(c)) > fmi2Warning) return fail("fmi2ExitInitializationMode", st);
+        if (!i) t2 = now(CLOCK_MONOTONIC);
+        if ((st = set_real(c, in_vr, (size_t)n_in, in_val)) > fmi2Warning)
+            return fail("fmi2SetReal (inputs)", st);
+        if ((st = do_step(c, 0.0, h, fmi2True)) > fmi2Warning) return fail("fmi2DoStep", st);
+        if (!i) t3 = now(CLOCK_MONOTONIC);
     }
-    printf("RESULT {\"ok\": 1, \"instantiate_s\": %.9g, \"initialize_s\": %.9g, "
-           "\"first_step_s\": %.9g, \"steps_per_block\": %ld, \"last_output\": %.17g, "
-           "\"block_wall_s\": [", t1 - t0, t2 - t1, t3 - t2, n, n_out ? out_val[0] : 0.0);
-    for (long b = 0; b < blocks; b++) printf("%s%.9g", b ? ", " : "", wall[b]);
-    printf("], \"block_cpu_s\": [");
-    for (long b = 0; b < blocks; b++) printf("%s%.9g", b ? ", " : "", cpu[b]);
+
+    double w0 = now(CLOCK_MONOTONIC);
+    if (!strcmp(mode, "main") || !strcmp(mode, "serial")) {
+        for (int i = 0; i < n_inst; i++) steps(&run[i]);
+    } else if (!strcmp(mode, "worker") || !strcmp(mode, "pair")) {
+        pthread_t th[2];
+        for (int i = 0; i < n_inst; i++)
+            if (pthread_create(&th[i], NULL, steps, &run[i])) return fail("pthread_create", -1);
+        for (int i = 0; i < n_inst; i++) pthread_join(th[i], NULL);
+    } else {
+        return 2;
+    }
+    double total = now(CLOCK_MONOTONIC) - w0;
+    for (int i = 0; i < n_inst; i++)
+        if (run[i].status > fmi2Warning) return fail("the step loop", run[i].status);
+    printf("RESULT {\"ok\": 1, \"threads\": \"%s\", \"instantiate_s\": %.9g, "
+           "\"initialize_s\": %.9g, \"first_step_s\": %.9g, \"steps_per_block\": %ld, "
+           "\"last_output\": %.17g, \"total_wall_s\": %.9g, ", mode, t1 - t0, t2 - t1,
+           t3 - t2, n, n_out ? run[0].out_val[0] : 0.0, total);
+    print_times("block_wall_s", run[0].wall, blocks);
+    printf(", ");
+    print_times("block_cpu_s", run[0].cpu, blocks);
+    printf(", \"instances\": [");
+    for (int i = 0; i < n_inst; i++) {
+        printf("%s{\"digest\": \"%016llx\", ", i ? ", " : "",
+               (unsigned long long)run[i].digest);
+        print_times("block_wall_s", run[i].wall, blocks);
+        printf(", ");
+        print_times("block_cpu_s", run[i].cpu, blocks);
+        printf("}");
+    }
     printf("]}\n");
     fflush(stdout);
     fflush(stderr);
-    terminate(c);
-    free_instance(c);
+    for (int i = 0; i < n_inst; i++) {
+        terminate(run[i].c);
+        free_instance(run[i].c);
+    }
     return 0;
 }

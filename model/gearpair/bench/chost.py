@@ -37,6 +37,9 @@ from .settings import HOST_SOURCE, Progress, Settings, _quiet
 INPUTS = ("torque", "speed")
 OUTPUTS = ("dte", "mesh_force", "input_torque", "output_torque")
 REGIME = "stick_slip"  # the default point of the FMU: 3900 N.m, 100 r/min, stick-slip
+# where the C host steps: the instantiating thread, a worker thread, two instances in two
+# threads at once, the same two one after the other (benchmarks/fmi2_bench_host.c)
+THREAD_MODES = ("main", "worker", "pair", "serial")
 
 
 def build_host(workdir: Path) -> tuple[dict | None, str | None]:
@@ -63,7 +66,8 @@ def build_host(workdir: Path) -> tuple[dict | None, str | None]:
                       "which a pythonfmu FMU needs in a C host")
     exe = Path(workdir) / "fmi2_bench_host"
     proc = subprocess.run([gcc, "-O2", "-std=c99", f"-I{headers}", "-o", str(exe),
-                           str(HOST_SOURCE), "-ldl"], capture_output=True, text=True)
+                           str(HOST_SOURCE), "-ldl", "-lpthread"], capture_output=True,
+                          text=True)
     if proc.returncode != 0:
         return None, f"C host rows skipped: gcc failed: {proc.stderr.strip()[-500:]}"
     env = {"LD_PRELOAD": str(libpython), "PYTHONPATH": sysconfig.get_paths()["purelib"]}
@@ -82,8 +86,9 @@ def extract(fmu: str | Path, dest: Path) -> dict:
 
 
 def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
-             env: dict | None = None, timeout: float = 600.0) -> dict:
-    """One host process: its RESULT line as a dict, with ``exit_status``.
+             env: dict | None = None, timeout: float = 600.0, threads: str = "main") -> dict:
+    """One host process: its RESULT line as a dict, with ``exit_status``; ``threads`` the
+    host's thread mode (main, worker, pair, serial: `THREAD_MODES`).
 
     Raises RuntimeError when the host printed no result (it failed before its loop)."""
     vr = unit["vars"]
@@ -98,6 +103,7 @@ def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: i
             continue
         value = int(bool(value)) if typ == "Boolean" else value
         args += [flag[typ], f"{ref}={value!r}"]
+    args += ["-t", threads]
     child = dict(os.environ if env is None else env, **host["env"])
     child.pop("PYTHONHOME", None)
     proc = subprocess.run(args, capture_output=True, text=True, env=child, timeout=timeout)
@@ -194,8 +200,39 @@ def host_measurements(s: Settings, fmu: Path, noop: Path, workdir: str | Path,
         except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
             row["error"] = f"{type(exc).__name__}: {exc}"
         out["steps"].append(row)
+    out["threads"] = host_threads(host, units["gearpair"], starts["gearpair"],
+                                  s.host_steps[0], s.host_n, s.host_blocks, progress)
     if s.startup:
         out["startup"] = host_startup(host, units["gearpair"], starts["gearpair"], progress)
+    return out
+
+
+def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
+                 progress: Progress = _quiet) -> dict:
+    """GearPair stepped from each thread mode of the C host (`THREAD_MODES`): per step (best
+    block, us, each instance), the wall time of all timed steps, and whether every instance
+    gave the same outputs (the host's digest of every output of every step).
+
+    ``worker_over_main``: a worker thread's cost per step over the instantiating thread's;
+    ``pair_speedup``: two instances in two threads against the same two one after the other
+    (throughput ratio, total wall times)."""
+    out: dict = {"step": step, "n": n, "blocks": blocks, "error": None}
+    try:
+        for mode in THREAD_MODES:
+            progress(f"C host: GearPair at {step:g} s steps, threads {mode}")
+            got = run_host(host, unit, start, step, n, blocks, threads=mode)
+            out[mode] = {"us": [1e6 * min(i["block_wall_s"]) / n for i in got["instances"]],
+                         "cpu_us": [1e6 * min(i["block_cpu_s"]) / n
+                                    for i in got["instances"]],
+                         "total_s": got["total_wall_s"],
+                         "digests": [i["digest"] for i in got["instances"]],
+                         "exit_status": got["exit_status"]}
+        out["worker_over_main"] = out["worker"]["us"][0] / out["main"]["us"][0]
+        out["pair_speedup"] = out["serial"]["total_s"] / out["pair"]["total_s"]
+        digests = {d for m in THREAD_MODES for d in out[m]["digests"]}
+        out["identical"] = len(digests) == 1
+    except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+        out["error"] = f"{type(exc).__name__}: {exc}"
     return out
 
 

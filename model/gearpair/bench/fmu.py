@@ -209,8 +209,12 @@ def build_fmus(outdir: str | Path, progress: Progress | None = None) -> tuple[Pa
     src.mkdir(parents=True, exist_ok=True)
     shutil.copy(NOOP_SCRIPT, src / NOOP_SCRIPT.name)
     (src / "interface.json").write_text(json.dumps(iface, indent=1))
+    # the step block's layout: the no-op hands the C layer a block and a step that does
+    # nothing, so that its floor is the C layer's own cost (GearPairNoop.py)
+    shutil.copy(Path(__file__).resolve().parents[1] / "stepblock.py", src / "stepblock.py")
     noop = Path(FmuBuilder.build_FMU(src / NOOP_SCRIPT.name, dest=outdir / "GearPairNoop.fmu",
-                                     project_files=[src / "interface.json"]))
+                                     project_files=[src / "interface.json",
+                                                    src / "stepblock.py"]))
     # the floor runs on the same binary as GearPair.fmu: this project's C layer over
     # pythonfmu's library (otherwise the layer's cheaper calls make GearPair - no-op negative)
     mod.add_c_layer(noop)

@@ -229,6 +229,27 @@ def _c_host(result: dict) -> list[str]:
         out.append("C host exit status: " + ", ".join(
             f"{k} {exit_note(v)}" for k, v in status.items()) + " (each host prints and "
             "flushes its result before it frees the instance)")
+    th = ch.get("threads")
+    if th and th["error"]:
+        out.append(f"C host thread modes failed: {th['error']}")
+    elif th:
+        rows = {r["step"]: r for r in ch["steps"] if not r["error"]}
+        bulk = rows.get(1e-3, {}).get("engine_us")
+        out.append(f"GearPair in the C host by thread ({th['step']:g} s steps, best of "
+                   f"{th['blocks']} blocks of {th['n']} steps, us per step; main: the "
+                   "instantiating thread; worker: another thread; pair: two instances in two "
+                   "threads at once; serial: the same two one after the other):")
+        out.append(table(["threads", "us/step", "CPU us/step", "all timed steps s",
+                          "outputs"],
+                         [[m, " ".join(f"{u:.2f}" for u in th[m]["us"]),
+                           " ".join(f"{u:.2f}" for u in th[m]["cpu_us"]),
+                           _fmt(th[m]["total_s"], ".3f"),
+                           "same" if th["identical"] else " ".join(th[m]["digests"])]
+                          for m in ("main", "worker", "pair", "serial")]))
+        out.append(f"worker / main {th['worker_over_main']:.2f}; pair throughput / serial "
+                   f"{th['pair_speedup']:.2f}" + (
+                       f"; the engine's bulk cost at 1e-3 s steps per 1e-4 s simulated "
+                       f"(the floor of a 1e-4 s step): {bulk / 10:.2f} us" if bulk else ""))
     st = ch.get("startup")
     if st and st.get("error"):
         out.append(f"C host first start failed: {st['error']}")

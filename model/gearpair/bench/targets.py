@@ -7,10 +7,14 @@ from .settings import (
     TARGET_FIRST_START_S,
     TARGET_FMU_FACTOR,
     TARGET_LADDER,
+    TARGET_LAYER_US,
     TARGET_MEMORY_MB,
+    TARGET_PAIR,
     TARGET_SLAVE_OWN_US,
     TARGET_SPEEDUP,
+    TARGET_STEP_US,
     TARGET_STICK_SLIP,
+    TARGET_WORKER,
 )
 from .work_precision import accurate_rtol
 
@@ -99,6 +103,30 @@ def _host_targets(ch: dict | None) -> list[dict]:
                 f"<= {TARGET_SLAVE_OWN_US:g} us (us)")
         out.append(_target(what, r.get("c_slave_own_us"), r.get("c_slave_own_cpu_us"),
                            TARGET_SLAVE_OWN_US, ".1f", error=r["error"]))
+        what = (f"C host at 1e-4 s: GearPair per step (native step, {ch['regime']}, rtol "
+                f"{ch['rtol']:g}) <= {TARGET_STEP_US:g} us (us)")
+        out.append(_target(what, r.get("c_gearpair_us"), r.get("c_gearpair_cpu_us"),
+                           TARGET_STEP_US, ".2f", error=r["error"]))
+        what = (f"C host at 1e-4 s: the C layer's own cost per step (no-op step behind the "
+                f"same native path) <= {TARGET_LAYER_US:g} us (us)")
+        out.append(_target(what, r.get("c_noop_us"), r.get("c_noop_cpu_us"),
+                           TARGET_LAYER_US, ".2f", error=r["error"]))
+    th = ch.get("threads")
+    if th:
+        err = th["error"]
+        what = (f"C host: per step from a worker thread / from the instantiating thread <= "
+                f"{TARGET_WORKER:g} (x)")
+        out.append(_target(what, th.get("worker_over_main"), None, TARGET_WORKER, ".2f",
+                           error=err))
+        what = (f"C host: two instances in two threads, throughput / one after the other >= "
+                f"{TARGET_PAIR:g} (x)")
+        out.append(_target(what, th.get("pair_speedup"), None, TARGET_PAIR, ".2f", True,
+                           error=err))
+        if not err:
+            out.append({"target": "C host: every thread mode and instance gives the same "
+                        "outputs (digest of every output of every step)",
+                        "measured": str(th["identical"]), "measured_cpu": None,
+                        "met": th["identical"], "met_cpu": None, "short_by": None})
     st = ch.get("startup")
     if st:
         what = (f"first start of the FMU with empty caches (C host) <= "

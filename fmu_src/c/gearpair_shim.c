@@ -1206,7 +1206,7 @@ EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], si
     int slot[NATIVE_MAX];
     if (native_slots(s, vr, nvr, 'R', slot)) { /* inputs: the slave reads them there */
         for (size_t i = 0; i < nvr; i++) s->nat.x[slot[i]] = value[i];
-        return fmi2OK;
+        return taken(s, vr, nvr, 'R', fmi2OK);
     }
     begin(s);
     return taken(s, vr, nvr, 'R', settle(s, inner.set_real(s->inner, vr, nvr, value)));

@@ -248,9 +248,20 @@ def segment_start(md, wk, hs, tb):
     if nprev >= 0:
         release_departed(md, wk, hs, nact)
     settle(md, hs, wk.active, nact, st[T_S], speed, hs.mode[J_SEP])
-    if nprev >= 0 and md.flag[I_KIND] != KIND_CONSTANT:
+    if nprev >= 0 and md.flag[I_KIND] != KIND_CONSTANT and not same_pairs(wk, hs, nact):
         book_pair_change(md, wk, hs, nact)
     return nact
+
+
+@jit_hot
+def same_pairs(wk, hs, nact):
+    """Whether the segment's pairs are those of the last one (then no stored energy jumps)."""
+    if hs.mode[J_NPREV] != nact:
+        return False
+    for i in range(nact):
+        if hs.prev_active[i] != wk.active[i]:
+            return False
+    return True
 
 
 @jit_hot

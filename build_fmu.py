@@ -207,11 +207,14 @@ def _c_string(text: str) -> str:
     return '"' + "".join(c if 32 <= ord(c) < 127 else f"\\{ord(c):03o}" for c in out) + '"'
 
 
-def shim_table(xml: bytes, lo_open=frozenset(), choices: dict | None = None) -> str:
+def shim_table(xml: bytes, lo_open=frozenset(), choices: dict | None = None,
+               native: bool = False) -> str:
     """C header for the shim: GUID, pythonfmu's library name and one `GpVar` per variable
     (value reference, type, causality, whether settable after initialization, range, unit
     and, for integer codes, their names), read from the final modelDescription.xml.
-    ``lo_open``: names whose minimum is excluded; ``choices``: name -> (field, code names)."""
+    ``lo_open``: names whose minimum is excluded; ``choices``: name -> (field, code names);
+    ``native``: the slave hands the C layer a compiled step (GearPair.py, `native_handoff`;
+    other slaves are never asked)."""
     root = ET.fromstring(xml)
     choices = choices or {}
     rows = []
@@ -236,10 +239,12 @@ def shim_table(xml: bytes, lo_open=frozenset(), choices: dict | None = None) -> 
             f"#define GP_GUID {_c_string(root.get('guid'))}\n"
             f"#define GP_INNER_LIB {_c_string(model + INNER_SUFFIX)}\n"
             f"#define GP_NVARS {len(rows)}\n"
+            f"#define GP_NATIVE {int(native)}\n"
             "static const GpVar GP_VARS[GP_NVARS] = {\n" + "\n".join(rows) + "\n};\n")
 
 
-def add_c_layer(fmu: Path, lo_open=frozenset(), choices: dict | None = None) -> None:
+def add_c_layer(fmu: Path, lo_open=frozenset(), choices: dict | None = None,
+                native: bool = False) -> None:
     """Make a pythonfmu FMU's Linux binary the shim (fmu_src/c) over pythonfmu's library,
     which moves beside it as ``<modelIdentifier>_pythonfmu.so``; binaries for other
     platforms are left out. The resources get ``python.txt`` (this interpreter, which the
@@ -250,7 +255,7 @@ def add_c_layer(fmu: Path, lo_open=frozenset(), choices: dict | None = None) -> 
         model = ET.fromstring(xml).find("CoSimulation").get("modelIdentifier")
         pythonfmu_lib = z.read(f"binaries/linux64/{model}.so")
     with tempfile.TemporaryDirectory(prefix="gearpair_shim_") as tmp:
-        shim = compile_shim(shim_table(xml, lo_open, choices), Path(tmp), model)
+        shim = compile_shim(shim_table(xml, lo_open, choices, native), Path(tmp), model)
     # the Python building the FMU: the C layer loads it in hosts that are not Python
     _rewrite_zip(fmu, {f"binaries/linux64/{model}.so": shim,
                        f"binaries/linux64/{model}{INNER_SUFFIX}": pythonfmu_lib,
@@ -527,7 +532,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             _rewrite_zip(fmu, {"modelDescription.xml": complete_model_description(xml, spec)})
             progress(f"compiling the FMU's C layer ({Path(c_compiler()).name})")
             add_c_layer(fmu, lo_open={v["name"] for v in spec if v["lo_open"]},
-                        choices=mod.CHOICES)
+                        choices=mod.CHOICES, native=True)
     finally:
         # The builder imports GearPair and gearpair from temporary folders: forget them so
         # that an FMU instantiated later in this process imports its own bundled copy.

@@ -57,7 +57,7 @@ typedef struct {
     const char *codes; /* integer codes with their names, or NULL */
 } GpVar;
 
-#include "gearpair_vars.h" /* GP_GUID, GP_INNER_LIB, GP_VARS[], GP_NVARS */
+#include "gearpair_vars.h" /* GP_GUID, GP_INNER_LIB, GP_VARS[], GP_NVARS, GP_NATIVE */
 
 /* Modes of an instance (FMI 2.0, section 4.2.4; the slave is synchronous, so there is no
  * stepInProgress, and a failed step leaves the state of its start: see fmi2DoStep). */
@@ -916,6 +916,7 @@ static void native_fetch(Shim *s) {
     for (unsigned k = 0; k < 6; k++) vr[k] = NATIVE_VR + k;
     s->nat.x = NULL;
     s->nat.step = NULL;
+    if (!GP_NATIVE) return; /* a slave that knows nothing of it (build_fmu.add_c_layer) */
     fmi2Status worst = s->worst;
     if (inner.get_int(s->inner, vr, 6, w) > fmi2Warning) {
         s->worst = worst;

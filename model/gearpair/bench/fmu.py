@@ -217,7 +217,7 @@ def build_fmus(outdir: str | Path, progress: Progress | None = None) -> tuple[Pa
                                                     src / "stepblock.py"]))
     # the floor runs on the same binary as GearPair.fmu: this project's C layer over
     # pythonfmu's library (otherwise the layer's cheaper calls make GearPair - no-op negative)
-    mod.add_c_layer(noop)
+    mod.add_c_layer(noop, native=True)
     return gearpair_fmu, noop
 
 

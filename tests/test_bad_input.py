@@ -235,7 +235,12 @@ def set_refused(slave: Slave, name: str, value) -> None:
 @pytest.mark.fmu
 def test_fmu_refuses_every_invalid_parameter(md, unzipdir):
     """One instance: each bad value is refused when it is set, with a message naming the
-    parameter; none is taken, so the instance then initializes and steps normally."""
+    parameter; none is taken. The refusals are remembered: fmi2ExitInitializationMode is
+    refused naming one of them (a master that ignored the fmi2SetReal status must not run
+    with a value the user did not get) until each is set to a valid value; then the instance
+    initializes and steps normally."""
+    from fmpy.fmi1 import FMICallException
+
     bad = _bad_fmu_values(md)
     names = {n for n, _ in bad}
     gear = {f.name for f in fields(GearParams)}
@@ -244,10 +249,19 @@ def test_fmu_refuses_every_invalid_parameter(md, unzipdir):
     try:
         for name, value in bad:
             set_refused(slave, name, value)
-        slave.set("rtol", RTOL)
         slave.set("torque", TR)
         slave.set("speed", W10)
         slave.fmu.enterInitializationMode()
+        n_msgs = len(slave.messages)
+        with pytest.raises(FMICallException) as exc:
+            slave.fmu.exitInitializationMode()
+        assert exc.value.status == ERROR
+        said = " | ".join(m for s, m in slave.messages[n_msgs:] if s >= DISCARD)
+        assert "refused" in said and any(names_it(said, n) for n in names), said
+        for name in sorted(names - {"rtol"}):
+            start = slave.var[name].start
+            slave.set(name, int(start) if slave.var[name].type == "Integer" else float(start))
+        slave.set("rtol", RTOL)
         slave.fmu.exitInitializationMode()
         assert slave.step(0.0, 1e-4) == fmi2OK, slave.errors()
         assert slave.get()["mesh_force"] == pytest.approx(TR / GearParams().rb1, rel=0.5)

@@ -14,6 +14,7 @@ from typing import Any
 from ..params import RTOL_MIN
 from ..sweep.grid import Grid
 from ..sweep.settings import SweepSettings
+from .common import parse_set
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -108,14 +109,11 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 
 def settings_from_args(args) -> SweepSettings:
-    over = []
-    for item in args.set:
-        k, sep, v = item.partition("=")
-        if not sep:
-            raise ValueError(f"--set {item!r}: use NAME=VALUE")
-        over.append((k.strip(), float(v)))
+    """The held settings; ``--set`` is read as ``modes`` and ``simulate`` read it
+    (`common.parse_set`: the closest name for a typo, whole numbers where needed)."""
     return SweepSettings(
-        torque=args.torque, speed_rpm=args.speed_rpm, params=tuple(over),
+        torque=args.torque, speed_rpm=args.speed_rpm,
+        params=tuple(parse_set(args.set).items()),
         friction=args.friction, stick_tie=args.stick_tie, sliding=args.sliding,
         stiffness=args.stiffness, separation=not args.no_separation, rtol=args.rtol,
         steps_per_period=args.steps_per_period, transient_periods=args.transient_periods,

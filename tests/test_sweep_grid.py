@@ -329,3 +329,24 @@ def test_client_killed_at_random_moments_leaves_a_readable_store(tmp_path):
             if name in ds:
                 np.testing.assert_array_equal(ds[name].values, whole[name].values,
                                               err_msg=name)
+
+
+def test_progress_on_a_terminal_and_quiet(tmp_path):
+    """On a terminal the bar is redrawn in place with done/total, rate, time left and failed
+    points; without progress nothing is written."""
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    g = Grid.parse(["mu=0.01,0.02,0.03"])
+    term = Terminal()
+    run_grid(g, QUICK, tmp_path / "t.zarr", scheduler="serial", stream=term)
+    text = term.getvalue()
+    assert text.startswith("store ") and "3 to run" in text
+    assert "\rsweep [" in text and "3/3" in text and "points/s" in text and "ETA" in text
+    assert "failed 0" in text and text.endswith("\n")
+    quiet = Terminal()
+    run_grid(g, QUICK, tmp_path / "q.zarr", scheduler="serial", stream=quiet, progress=False)
+    assert quiet.getvalue() == ""

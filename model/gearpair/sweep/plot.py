@@ -123,7 +123,7 @@ def plot_maps(store: str | Path, prefix: str | Path,
         panels = [("stick ratio $r_k$ (Eq. 26)", rk)]
         if bool((rl.fillna(0) != 0).any()):
             panels.append(("contact-loss ratio $r_l$ (Eq. 27)", rl))
-        fig = Figure(figsize=(5.2 * len(panels), 4.2), layout="constrained")
+        fig = Figure(figsize=(5.6 * len(panels), 4.4), layout="constrained")
         axes = fig.subplots(1, len(panels), squeeze=False)[0]
         for ax, (label, da) in zip(axes, panels, strict=True):
             if ds.attrs["grid"]["kind"] == "points":
@@ -138,9 +138,10 @@ def plot_maps(store: str | Path, prefix: str | Path,
                 ax.set_xlabel(_axis_label(x))
                 ax.set_ylabel(_axis_label(y))
             fig.colorbar(m, ax=ax, label=label)
-        held = ", ".join(f"{k} = {v:g}" for k, v in sel.items())
-        fig.suptitle(f"{ds.attrs.get('title', 'sweep')}" + (f"\nat {held}" if held else "")
-                     + "; blank: failed, invalid or not run", fontsize=9)
+        held = ", ".join(f"{k} = {v:g} {sweepable().get(k, '')}".rstrip()
+                         for k, v in sel.items())
+        fig.suptitle(f"{ds.attrs.get('title', 'sweep')}" + (f" at {held}" if held else "")
+                     + "\nblank: failed, invalid or not run", fontsize=9)
         fig.savefig(path, dpi=110)
         out.append(Path(path))
     return out

@@ -10,13 +10,14 @@ the variables `NUMERIC` (ratios, mesh-force and DTE statistics, period, cost ...
 ``poincare_count`` (CF's "incomplete multidimensional array" form of ragged data). The
 group's attributes hold the layout version, the grid, the settings and the engine version.
 
-Crash safety: only this process (the client) writes, one point at a time. A chunk holds up
-to `CHUNK_POINTS` neighbouring points (one file per point would make a 1,000-point store
-37,000 files); writing a point makes zarr read its chunk, merge the point in and write the
-whole chunk again, and zarr's `LocalStore` (zarr 3.1) writes every file to a temporary name
-and renames it over the old one (`os.replace`, atomic on POSIX; checked by a test): a chunk
-file is the old one or the new one, never a mix. ``done`` is written after the point's other
-variables, so a point killed between the two reads as not done and runs again. The store's
+Crash safety: only this process (the client) writes, one batch of finished points at a time
+(`Store.write_many`). A chunk holds up to `CHUNK_POINTS` neighbouring points (one file per
+point would make a 1,000-point store 37,000 files); writing points makes zarr read their
+chunk, merge them in and write the whole chunk again, and zarr's `LocalStore` (zarr 3.1)
+writes every file to a temporary name and renames it over the old one (`os.replace`, atomic
+on POSIX; checked by a test): a chunk file is the old one or the new one, never a mix.
+``done`` is written after the points' other variables, so a point killed between the two
+reads as not done and runs again. The store's
 metadata is written once, into a temporary folder renamed into place. A killed client
 therefore loses only the points in flight, and the store always opens.
 """

@@ -69,6 +69,9 @@ class StudyRun:
         """The end line: counts, wall time, CPU time per point, speed-up over one core."""
         s = self.summary()
         head = "interrupted" if self.interrupted else "sweep"
+        if not self.ran and not self.interrupted:
+            return (f"sweep: {s['grid']}: nothing to run ({s['ok']} ok, {s['failed']} failed, "
+                    f"{s['invalid']} invalid in the store {self.store})")
         line = (f"{head}: {s['grid']}: ran {s['ran']} now ({s['ok']} ok, {s['failed']} "
                 f"failed, {s['invalid']} invalid, {s['not_run']} not run in all) in "
                 f"{s['elapsed_s']:.1f} s on {self.workers} worker(s) [{self.scheduler}], "

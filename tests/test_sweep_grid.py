@@ -350,3 +350,18 @@ def test_progress_on_a_terminal_and_quiet(tmp_path):
     quiet = Terminal()
     run_grid(g, QUICK, tmp_path / "q.zarr", scheduler="serial", stream=quiet, progress=False)
     assert quiet.getvalue() == ""
+
+
+def test_a_store_being_written_is_refused_to_a_second_sweep(tmp_path, capsys):
+    """Two sweeps writing one store would lose points to each other's chunk rewrites: the
+    second is refused while the first holds the store (the lock goes with its process)."""
+    g = Grid.parse(["mu=0.01,0.02"])
+    first = Store.open_or_create(tmp_path / "l.zarr", g, QUICK.replace(min_periods=16))
+    argv = ["sweep", "mu=0.01,0.02", "--scheduler", "serial", "--store",
+            str(tmp_path / "l.zarr"), "--out", str(tmp_path / "l"), *QUICK_ARGS]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "is being written by another sweep" in err and err.count("\n") == 1
+    assert main([*argv, "--new-store"]) == 2  # not replaced under the writer either
+    first.close()
+    assert main(argv) == 0

@@ -156,8 +156,6 @@ def run(args) -> int:
     store and the files with its error), 130 when interrupted (the finished points are
     stored), 2 for bad input (nothing ran)."""
     from ..sweep import study
-    from ..sweep.plot import plot_maps
-    from ..sweep.result import SweepResult
     from ..sweep.store import Store
 
     settings = settings_from_args(args)
@@ -180,9 +178,21 @@ def run(args) -> int:
     slices = parse_slices(args.slice, grid)
     store = Path(args.store) if args.store else Path(f"{prefix}.zarr")
     st = Store.open_or_create(store, grid, settings, new=args.new_store)  # before any point
+    try:
+        return _run_and_report(args, grid, settings, st, store, prefix, one, slices)
+    finally:
+        st.close()
+
+
+def _run_and_report(args, grid, settings, st, store, prefix, one, slices) -> int:
+    """Run the missing points into the open store ``st``, write the files, report."""
+    from ..sweep import study
+    from ..sweep.plot import plot_maps
+    from ..sweep.result import SweepResult
+
     run = study.run_grid(grid, settings, st, scheduler=args.scheduler, workers=args.workers,
-                   retries=args.retries, rerun_failed=args.rerun_failed,
-                   progress=not args.quiet)
+                         retries=args.retries, rerun_failed=args.rerun_failed,
+                         progress=not args.quiet)
     recs = st.records()
     files: dict[str, Any] = {"store": str(store)}
     summary = run.summary()

@@ -65,6 +65,39 @@ _PHYSICS = ("params.py", "effects.py", "geometry.py", "stiffness.py", "potential
             "sweep/settings.py")
 
 
+class _Lock:
+    """An exclusive ``flock`` on the store's folder, held until `close`."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+
+    __del__ = close
+
+
+def _lock(path: Path) -> _Lock | None:
+    """Hold the store's writer lock (``flock`` on its folder, whose inode stays while zarr
+    replaces the files inside it): a second sweep writing the same store would lose points
+    to the first one's chunk rewrites. The kernel drops the lock when the process ends,
+    however it ends. `StoreError` if another process holds it."""
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no lock (the project is tested on Linux)
+        return None
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise StoreError(f"store {path} is being written by another sweep; wait for it or "
+                         "give another --store") from None
+    return _Lock(fd)
+
+
 def _zarr():
     try:
         import xarray  # noqa: F401 - readers need it; say so before anything is written
@@ -167,10 +200,13 @@ class Store:
                              f"format {fmt}; this gearpair reads format {FORMAT})")
         if mode == "r+" and not os.access(path, os.W_OK):
             raise StoreError(f"store {path} is not writable")
+        lock = _lock(path) if mode == "r+" else None
         group = zarr.open_group(path, mode=mode, zarr_format=3)
         grid = Grid.from_json(attrs["grid"])
         settings = _settings_from_json(attrs["settings"])
-        return cls(path, group, grid, settings)
+        store = cls(path, group, grid, settings)
+        store._lock = lock  # held while this object lives (and released when the process dies)
+        return store
 
     def differences(self, grid: Grid, settings: SweepSettings) -> list[str]:
         """What differs between this store and the sweep ``grid`` at ``settings``: the grid,
@@ -201,9 +237,9 @@ class Store:
         except OSError as exc:
             raise StoreError(f"store {path}: cannot create its folder {path.parent} "
                              f"({exc.strerror or exc})") from None
-        if replace_old and not (path / "zarr.json").is_file():
-            # only a store is ever replaced, never another folder or file
-            cls.open(path)
+        old = None
+        if replace_old:  # only a store is ever replaced, never another folder or file,
+            old = cls.open(path, mode="r+")  # and not one that another sweep is writing
         tmp = path.parent / f".{path.name}.creating-{os.getpid()}"
         try:
             if tmp.exists():
@@ -222,9 +258,17 @@ class Store:
             os.rename(path, trash)
             os.rename(tmp, path)
             shutil.rmtree(trash, ignore_errors=True)
+            del old
         else:
             os.rename(tmp, path)
         return cls.open(path, mode="r+")
+
+    def close(self) -> None:
+        """Release the writer lock (also released when the object goes or the process
+        ends)."""
+        lock, self._lock = getattr(self, "_lock", None), None
+        if lock is not None:
+            lock.close()
 
     # -- state ------------------------------------------------------------------------------
     def done(self) -> np.ndarray:

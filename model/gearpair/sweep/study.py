@@ -128,12 +128,23 @@ def run_grid(grid: Grid, settings: SweepSettings | None = None,
     if retries < 0:
         raise ValueError(f"retries = {retries!r} must be >= 0")
     check_grid(grid, settings)
-    if isinstance(store, Store):  # opened and checked by the caller
-        st = store
+    if isinstance(store, Store):  # opened and checked by the caller, who closes it
+        st, own = store, False
         if st.differences(grid, settings):
             raise ValueError(f"store {st.path} holds another sweep")
     else:
-        st = Store.open_or_create(store, grid, settings, new=new_store)
+        st, own = Store.open_or_create(store, grid, settings, new=new_store), True
+    try:
+        return _run_into(st, grid, settings, scheduler=scheduler, workers=workers,
+                         retries=retries, rerun_failed=rerun_failed, progress=progress,
+                         stream=stream, on_record=on_record)
+    finally:
+        if own:
+            st.close()
+
+
+def _run_into(st: Store, grid: Grid, settings: SweepSettings, *, scheduler, workers, retries,
+              rerun_failed, progress, stream, on_record) -> StudyRun:
     store = st.path
     out = sys.stderr if stream is None else stream
     before = st.counts()

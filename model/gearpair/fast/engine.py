@@ -12,6 +12,17 @@ from ..effects import Effects
 from ..engine import Engine, Outputs, StepSummary, check_inputs
 from ..equations import U2, Model
 from ..params import GearParams, check_rtol
+from ..stepblock import (
+    N_X,
+    STEP_DONE,
+    X_FMU,
+    X_LOAD,
+    X_LOADON,
+    X_REC,
+    X_SPEED,
+    X_TEND,
+    X_TORQUE,
+)
 from .layout import (
     FRICTION_CODE,
     I_BACK,
@@ -48,7 +59,6 @@ from .layout import (
     N_REC,
     N_SC,
     N_ST,
-    N_X,
     N_Y,
     NZ,
     O_NREJ,
@@ -87,7 +97,6 @@ from .layout import (
     S_KM,
     STATUS_EVENTS,
     STATUS_STEP,
-    STEP_DONE,
     T_BACK,
     T_H,
     T_LAST0,
@@ -98,13 +107,6 @@ from .layout import (
     T_STICK,
     T_T,
     T_TORQUE,
-    X_FMU,
-    X_LOAD,
-    X_LOADON,
-    X_REC,
-    X_SPEED,
-    X_TEND,
-    X_TORQUE,
     Y_A,
     HybridState,
     ModelData,

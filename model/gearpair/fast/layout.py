@@ -64,26 +64,6 @@ N_O = 10  # outputs: dte, mesh, friction, state, out torque, reaction, in torque
 # a recorded row: outputs, stick and separation fractions, peak force, events, back-flank
 # fraction, mean and least mesh force over the interval
 N_REC = N_O + 7
-# -- the step block (`gearpair.stepblock`, imported here for the compiled code)
-from ..stepblock import (  # noqa: E402, F401
-    N_X,
-    STEP_DONE,
-    STEP_FAILED,
-    STEP_NONFINITE,
-    STEP_RECORD,
-    STEP_REFUSED,
-    X_BAD,
-    X_FMU,
-    X_H,
-    X_LOAD,
-    X_LOADON,
-    X_REC,
-    X_SPEED,
-    X_TCHK,
-    X_TEND,
-    X_TORQUE,
-)
-
 # -- Work.dense rows: the continuous extension, the event values at a step's ends, and the
 # mesh force at each Runge-Kutta stage of the current step
 R_GSAVE, R_GEND, R_FSTG = 8, 9, 10

@@ -155,3 +155,39 @@ def test_two_instances_in_two_threads_of_a_c_host(fmu_path, tmp_path):
     assert all(g["exit_status"] == 0 for g in got.values())
     # the outputs moved: the digest is of a stick-slip run, not of constants
     assert got["main"]["last_output"] != 0.0
+
+
+def test_a_state_restored_into_another_instance_steps_natively(fmu_path, md, tmp_path):
+    """A serialized state set into a second instance: it goes on with the first one's
+    outputs, and after one step through Python the C layer steps it natively."""
+    unzip = fmpy.extract(str(fmu_path), unzipdir=str(tmp_path / "fmu"))
+    a, b = (LoggingSlave(md, unzip, name=n, logging_on=False) for n in ("a", "b"))
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output"
+            and v.type == "Real"]
+    for g in (a, b):
+        g.fmu.setupExperiment(startTime=0.0)
+        g.fmu.enterInitializationMode()
+        g.fmu.exitInitializationMode()
+    for k in range(5):
+        a.fmu.doStep(k * 1e-4, 1e-4)
+    b.fmu.setFMUstate(b.fmu.deSerializeFMUstate(a.fmu.serializeFMUstate(a.fmu.getFMUstate())))
+    cls = sys.modules["GearPair"].GearPair
+    calls = {"n": 0}
+    python_step = cls.do_step
+
+    def counted(self, t, h):
+        calls["n"] += 1
+        return python_step(self, t, h)
+
+    cls.do_step = counted
+    try:
+        for k in range(5, 25):
+            for g in (a, b):
+                g.fmu.doStep(k * 1e-4, 1e-4)
+            assert a.fmu.getReal(outs) == b.fmu.getReal(outs)
+    finally:
+        cls.do_step = python_step
+    assert calls["n"] == 1  # b's first step after the restore
+    for g in (a, b):
+        g.fmu.terminate()
+        g.fmu.freeInstance()

@@ -1420,8 +1420,10 @@ EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     begin(s);
     fmi2Status r = settle(s, inner.set_state(s->inner, st->inner));
     if (r <= fmi2Warning) s->mode = st->mode; /* refused: the slave kept its state */
-    if (s->nat.x && s->mode == M_STEP) native_fetch(s); /* the engine may be another */
-    if (s->mode != M_STEP) native_drop(s);
+    if (s->mode == M_STEP) /* the engine may be another, or the instance new to stepping */
+        native_fetch(s);
+    else
+        native_drop(s);
     return r;
 }
 

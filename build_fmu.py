@@ -492,6 +492,29 @@ def _add_compiled_engine(package: Path, import_name: str, progress=_stderr) -> N
              f"({manifest.get('files', 0)} files)")
 
 
+def write_build_record(fmu: Path, script: Path = SCRIPT) -> Path:
+    """``<fmu>.build.json`` beside the FMU: this builder and ``fmu_src`` (the slave, the Python
+    it loads, the C layer) with their SHA-256, and the FMU's own. `gearpair.scenes.location`
+    reads it to tell a stale FMU (one of these files changed after the build) and to rebuild
+    it with this builder. The bundled package needs no record: the FMU holds its copy,
+    compared file by file."""
+    import hashlib
+    import json
+
+    def digest(p: Path) -> str:
+        return hashlib.sha256(p.read_bytes()).hexdigest()
+
+    fmu_src = SCRIPT.parent  # the slave, the Python it loads, the C layer
+    files = dict.fromkeys([Path(__file__).resolve(), Path(script).resolve(),
+                           *(p.resolve() for p in sorted(fmu_src.rglob("*"))
+                             if p.suffix in (".py", ".c", ".h"))])
+    record = {"fmu_sha256": digest(fmu), "builder": str(Path(__file__).resolve()),
+              "sources": {str(p): digest(p) for p in files}}
+    path = fmu.with_name(fmu.name + ".build.json")
+    path.write_text(json.dumps(record, indent=1) + "\n")
+    return path
+
+
 def build(out: str | Path = "dist", package: str | Path = PACKAGE,
           script: str | Path = SCRIPT, progress=_stderr) -> Path:
     """Build ``<out>/GearPair.fmu`` and return its path.
@@ -533,6 +556,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             progress(f"compiling the FMU's C layer ({Path(c_compiler()).name})")
             add_c_layer(fmu, lo_open={v["name"] for v in spec if v["lo_open"]},
                         choices=mod.CHOICES, native=True)
+            write_build_record(fmu, script)
     finally:
         # The builder imports GearPair and gearpair from temporary folders: forget them so
         # that an FMU instantiated later in this process imports its own bundled copy.

@@ -12,38 +12,27 @@ from pathlib import Path
 
 import numpy as np
 
+from ..scenes import driver
 from .runs import Timing, _errors, regime_effects
 from .settings import NOOP_SCRIPT, REGIMES, ROOT, TARGET_FMU_FACTOR, Progress, Settings, _quiet
 from .work_precision import _FAILED, _NO_ERRORS, _row, engine_call_cost
 
-# Runs in a child process that never imports the working tree's gearpair. Reads a job (JSON
-# file argv[1]) and writes its answers (JSON file argv[2]).
-_FMU_WORKER = r"""
+# Runs in a child process that never imports the working tree's gearpair: the FMU driver's
+# text (`gearpair.scenes.driver`, which imports nothing of gearpair), then this. Reads a job
+# (JSON file argv[1]) and writes its answers (JSON file argv[2]).
+_FMU_WORKER = driver.source() + r"""
 import importlib, json, os, sys, time
 job = json.load(open(sys.argv[1]))
 t_imp = time.perf_counter()
 import fmpy
-from fmpy.fmi2 import FMU2Slave
-md = fmpy.read_model_description(job["fmu"])
-unzip = fmpy.extract(job["fmu"], unzipdir=os.path.join(os.getcwd(), "extracted"))
-var = {v.name: v for v in md.modelVariables}
+drv = FmuDriver(job["fmu"], unzipdir=os.path.join(os.getcwd(), "extracted"))
+md, unzip, var = drv.md, drv.unzip, drv.variables
 out = {"import_s": time.perf_counter() - t_imp}
 
 def instance():
-    s = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
-                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench")
-    s.instantiate()
-    return s
+    return drv.instance("bench")
 
-def set_values(fmu, values):
-    for name, x in values.items():
-        v = var[name]
-        if v.type == "Real":
-            fmu.setReal([v.valueReference], [float(x)])
-        elif v.type == "Integer":
-            fmu.setInteger([v.valueReference], [int(x)])
-        elif v.type == "Boolean":
-            fmu.setBoolean([v.valueReference], [bool(x)])
+set_values = drv.set_values
 
 def simulate(r):
     try:
@@ -96,10 +85,7 @@ def core_calls(c):
 
 def init(start, step):
     fmu = instance()
-    fmu.setupExperiment(startTime=0.0)
-    set_values(fmu, start)
-    fmu.enterInitializationMode()
-    fmu.exitInitializationMode()
+    drv.initialize(fmu, start)
     return fmu
 
 def calls(c):
@@ -135,10 +121,7 @@ def startup(c):
     t0 = time.perf_counter()
     fmu = instance()
     t1 = time.perf_counter()
-    fmu.setupExperiment(startTime=0.0)
-    set_values(fmu, c["start"])
-    fmu.enterInitializationMode()
-    fmu.exitInitializationMode()
+    drv.initialize(fmu, c["start"])
     t2 = time.perf_counter()
     fmu.doStep(0.0, c["step"])
     t3 = time.perf_counter()

@@ -42,6 +42,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="integrator: fast (numba), reference (scipy) or fmu (the built FMU "
                    "through fmpy); default: the scene's [solver] engine, fast without "
                    "a scene")
+    s.add_argument("--fmu", metavar="PATH", help="the FMU of --engine fmu; default "
+                   "$GEARPAIR_FMU, else dist/GearPair.fmu of the current folder (python "
+                   "build_fmu.py writes it there), rebuilt when stale")
     s.add_argument("--t-end", type=float, metavar="S", help="simulated time (s), overrides "
                    "the scene's; default 0.2 without a scene")
     d = _RUN_FLAGS
@@ -121,7 +124,7 @@ def _scene_from_file(args):
     if given:
         flags = ", ".join("--" + k.replace("_", "-") for k in given)
         raise ValueError(f"{flags}: set this in the scene file; with a scene only --engine, "
-                         "--t-end, --out, --plot and --json apply")
+                         "--fmu, --t-end, --out, --plot and --json apply")
     import warnings
 
     with warnings.catch_warnings(record=True) as caught:
@@ -196,6 +199,9 @@ def _outside_model(scene) -> str | None:
 def run(args) -> int:
     scene, t_from, extra = (_scene_from_file if args.scene else _scene_from_flags)(args)
     engine = args.engine or scene.solver.engine
+    if args.fmu is not None and engine != "fmu":
+        raise ValueError(f"--fmu {args.fmu}: the FMU runs with --engine fmu only (engine "
+                         f"{engine})")
     _check_outputs(args)
     if engine == "fmu":  # the other engines warn in `gearpair.results.simulate`
         from ..results import _check_load
@@ -207,7 +213,7 @@ def run(args) -> int:
         print(f"gearpair: warning: {outside}", file=sys.stderr)
     wall0 = time.perf_counter()
     try:
-        traj = scene.run(engine)
+        traj = scene.run(engine, fmu_path=args.fmu)
     except (RuntimeError, ArithmeticError, ImportError) as exc:
         # a failed run or a missing extra, not bad input
         print(f"gearpair: error: {exc}", file=sys.stderr)

@@ -10,11 +10,13 @@ Everything inside is SI. Keys whose unit is not SI say so in their name (``speed
 and relative file names are resolved against the scene file's folder.
 
 The package: `types` (the scene and its sections, `Scene.run`), `reading` (TOML into a
-validated scene), `fmu` (the FMU as an engine: start values, the fmpy run) and `errors`.
+validated scene), `fmu` (the FMU as an engine: start values, the fmpy run), `location`
+(where the FMU is, and whether it is stale) and `errors`.
 """
 
 from .errors import SceneError, SceneWarning
-from .fmu import default_fmu, fmu_sources, fmu_start_values, run_fmu
+from .fmu import fmu_start_values, run_fmu
+from .location import find_fmu, stale_reason
 from .reading import load_scene, parse_scene
 from .types import (
     ENGINES,
@@ -29,5 +31,5 @@ from .types import (
 )
 
 __all__ = ["ENGINES", "OUTPUT_NAMES", "STEP_MAX", "STEP_MIN", "T_END_MAX", "Inputs",
-           "OutputSpec", "Scene", "SceneError", "SceneWarning", "Solver", "default_fmu",
-           "fmu_sources", "fmu_start_values", "load_scene", "parse_scene", "run_fmu"]
+           "OutputSpec", "Scene", "SceneError", "SceneWarning", "Solver", "find_fmu",
+           "fmu_start_values", "stale_reason", "load_scene", "parse_scene", "run_fmu"]

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import re
-import sys
 import time as _time
 from dataclasses import fields
 from pathlib import Path
@@ -15,43 +14,12 @@ import numpy as np
 
 from ..params import GearParams
 from ..results import Trajectory
+from .driver import FmuDriver
 from .errors import SceneError
+from .location import find_fmu
 
 if TYPE_CHECKING:
     from .types import Scene
-
-_ROOT = Path(__file__).resolve().parents[3]  # the repository (build_fmu.py, dist/)
-
-
-def fmu_sources() -> list[Path]:
-    """The files ``dist/GearPair.fmu`` is built from: build_fmu.py, the slave and its C
-    layer (``fmu_src``), and the package it bundles, sub-packages (the fast engine) included."""
-    return [_ROOT / "build_fmu.py",
-            *(p for p in sorted((_ROOT / "fmu_src").rglob("*")) if p.suffix in (".py", ".c", ".h")),
-            *sorted((_ROOT / "model" / "gearpair").rglob("*.py"))]
-
-
-def default_fmu(rebuild_stale: bool = True) -> Path:
-    """``dist/GearPair.fmu`` of the repository, built with build_fmu.py if missing (or older
-    than the files it is built from, so a run never uses stale physics)."""
-    script = _ROOT / "build_fmu.py"
-    fmu = _ROOT / "dist" / "GearPair.fmu"
-    sources = fmu_sources()
-    if not script.is_file():
-        if fmu.is_file():
-            return fmu
-        raise SceneError(f"no FMU at {fmu} and no build_fmu.py to build it; pass its path")
-    stale = fmu.is_file() and rebuild_stale and \
-        fmu.stat().st_mtime < max(p.stat().st_mtime for p in sources if p.is_file())
-    if not fmu.is_file() or stale:
-        import importlib.util
-
-        spec = importlib.util.spec_from_file_location("_gearpair_build_fmu", script)
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        print(f"gearpair: {'rebuilding stale' if stale else 'building'} {fmu}", file=sys.stderr)
-        mod.build(fmu.parent)
-    return fmu
 
 
 def _codes(description: str) -> dict[str, int]:
@@ -123,76 +91,61 @@ def run_fmu(scene: Scene, fmu_path: str | Path | None = None) -> Trajectory:
     compiled code) apart from ``wall_time_s`` (the steps and the reading of the outputs).
     """
     try:
-        import fmpy
-        from fmpy.fmi2 import FMU2Slave
+        import fmpy  # noqa: F401
     except ImportError:
         raise SceneError("--engine fmu needs fmpy: pip install 'gearpair[fmu]'") from None
-    import shutil
 
-    path = Path(fmu_path) if fmu_path is not None else default_fmu()
+    path = find_fmu(fmu_path)
     wall0 = _time.perf_counter()
-    md = fmpy.read_model_description(str(path))
-    variables = {v.name: v for v in md.modelVariables}
-    start = fmu_start_values(scene, variables)
-    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
-    reals = [n for n in outputs if variables[n].type == "Real"]
-    others = [n for n in outputs if variables[n].type != "Real"]
-    h, t_end = scene.step, scene.t_end
-    n = int(math.ceil(t_end / h - 1e-9))
-    grid = np.minimum(h * np.arange(n + 1), t_end)  # the communication points
-    grid[-1] = t_end
-    fT, fW = scene.inputs.torque, scene.inputs.speed
-    # a scene drives no load shaft: load_speed stays 0 with load_speed_input false
-    vr_in = [variables[k].valueReference for k in ("torque", "speed", "load_speed")
-             if k in variables]
-    vr_real = [variables[k].valueReference for k in reals]
-    vr_other = [variables[k].valueReference for k in others]
-    rec = np.zeros((n + 1, len(outputs)))
-    unzip = fmpy.extract(str(path))
+    drv = FmuDriver(path)
     fmu = None
     t = 0.0
     try:
-        fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, instanceName="gearpair",
-                        modelIdentifier=md.coSimulation.modelIdentifier)
-        fmu.instantiate()
-        fmu.setupExperiment(startTime=0.0)
-        for name, value in start.items():
-            v = variables[name]
-            if v.type == "Real":
-                fmu.setReal([v.valueReference], [float(value)])
-            elif v.type == "Boolean":
-                fmu.setBoolean([v.valueReference], [bool(value)])
-            else:
-                fmu.setInteger([v.valueReference], [int(value)])
+        variables = drv.variables
+        start = fmu_start_values(scene, variables)
+        outputs = drv.outputs()
+        reals = [n for n in outputs if variables[n].type == "Real"]
+        others = [n for n in outputs if variables[n].type != "Real"]
+        h, t_end = scene.step, scene.t_end
+        n = int(math.ceil(t_end / h - 1e-9))
+        grid = np.minimum(h * np.arange(n + 1), t_end)  # the communication points
+        grid[-1] = t_end
+        fT, fW = scene.inputs.torque, scene.inputs.speed
+        # a scene drives no load shaft: load_speed stays 0 with load_speed_input false
+        names_in = [k for k in ("torque", "speed", "load_speed") if k in variables]
+        vr_in, vr_real, vr_other = drv.refs(names_in), drv.refs(reals), drv.refs(others)
+        rec = np.zeros((n + 1, len(outputs)))
 
-        def inputs(t):
-            fmu.setReal(vr_in, [float(fT(t)), float(fW(t)), 0.0][:len(vr_in)])
+        def held(t):
+            return [float(fT(t)), float(fW(t)), 0.0][:len(vr_in)]
 
         def read(i):
             rec[i, :len(reals)] = fmu.getReal(vr_real)
             if vr_other:
                 rec[i, len(reals):] = fmu.getInteger(vr_other)
 
-        fmu.enterInitializationMode()
-        inputs(0.0)
-        fmu.exitInitializationMode()
-        startup = _time.perf_counter() - wall0
-        wall0 = _time.perf_counter()
-        read(0)
-        for i in range(1, n + 1):
-            t = float(grid[i - 1])
-            inputs(t)
-            fmu.doStep(currentCommunicationPoint=t, communicationStepSize=float(grid[i]) - t)
-            read(i)
-        wall = _time.perf_counter() - wall0
-        fmu.terminate()
-    except Exception as exc:  # fmpy reports a refused call as a generic exception
-        raise RuntimeError(f"FMU run of scene {scene.name!r} failed at t = {t:g} s: {exc} "
-                           "(rerun with fmpy's debug_logging for the FMU's message)") from exc
+        try:
+            fmu = drv.instance()
+            drv.initialize(fmu, start, dict(zip(names_in, held(0.0), strict=True)))
+            startup = _time.perf_counter() - wall0
+            wall0 = _time.perf_counter()
+            read(0)
+            for i in range(1, n + 1):
+                t = float(grid[i - 1])
+                fmu.setReal(vr_in, held(t))
+                fmu.doStep(currentCommunicationPoint=t,
+                           communicationStepSize=float(grid[i]) - t)
+                read(i)
+            wall = _time.perf_counter() - wall0
+            fmu.terminate()
+        except Exception as exc:  # fmpy reports a refused call as a generic exception
+            msg = (f"FMU run of scene {scene.name!r} failed at t = {t:g} s: {exc} (rerun "
+                   "with fmpy's debug_logging for the FMU's message)")
+            raise RuntimeError(msg) from exc
     finally:
         if fmu is not None:
             fmu.freeInstance()
-        shutil.rmtree(unzip, ignore_errors=True)
+        drv.close()
     data: dict[str, np.ndarray] = {"time": grid.astype(float)}
     for k, name in enumerate(reals + others):
         data[name] = rec[:, k]

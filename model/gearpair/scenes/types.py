@@ -124,8 +124,9 @@ class Scene:
         Parameters
         ----------
         engine : "fast", "reference" or "fmu"; default the scene's ``[solver] engine``
-        fmu_path : the FMU for ``engine="fmu"``; default ``dist/GearPair.fmu`` of the
-            repository, built (or rebuilt when older than its sources) with build_fmu.py
+        fmu_path : the FMU for ``engine="fmu"``; default ``$GEARPAIR_FMU`` or
+            ``dist/GearPair.fmu`` of the current folder, rebuilt when stale
+            (`gearpair.scenes.location.find_fmu`)
         """
         engine = self.solver.engine if engine is None else engine
         if engine not in ENGINES:

@@ -1,0 +1,140 @@
+"""Where the GearPair FMU is, and whether it still holds the physics of this package.
+
+The package never looks for a repository: the FMU is the path a caller passes
+(``--fmu PATH``, ``Scene.run(fmu_path=...)``), else the file ``GEARPAIR_FMU`` names, else
+``dist/GearPair.fmu`` of the current folder (where ``python build_fmu.py`` puts it). Without
+one, `find_fmu` says how to build or pass it.
+
+An FMU is *stale* when it would not run this package's physics:
+
+- its bundled copy of ``gearpair`` (``resources/gearpair/**.py`` in the FMU) differs from
+  this package's own files, fast-engine sub-package included; or
+- a file of its build record changed since the build. ``build_fmu.py`` writes the record
+  beside the FMU (``GearPair.fmu.build.json``): the builder, the slave and its C layer with
+  their content hashes, and the FMU's own hash. A file of the record that no longer exists
+  (the FMU moved to another machine) is not judged.
+
+A stale FMU found by default is rebuilt with the builder the record names, bundling this
+package (as before a run on stale physics); without one, the run goes on with a warning.
+An FMU the caller passes is never rebuilt: a stale one gets the warning.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import os
+import sys
+import warnings
+import zipfile
+from pathlib import Path
+
+from .errors import SceneError, SceneWarning
+
+ENV = "GEARPAIR_FMU"  # environment variable naming the FMU
+FMU_NAME = "GearPair.fmu"
+RECORD_SUFFIX = ".build.json"  # GearPair.fmu -> GearPair.fmu.build.json
+_BUNDLED = "resources/gearpair/"  # the package's copy in the FMU
+PACKAGE = Path(__file__).resolve().parents[1]  # this gearpair package (not a repository)
+
+
+def file_hash(path: str | Path) -> str:
+    """SHA-256 of a file's bytes (hex), as the build record holds them."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def record_path(fmu: str | Path) -> Path:
+    """The build record beside ``fmu``."""
+    fmu = Path(fmu)
+    return fmu.with_name(fmu.name + RECORD_SUFFIX)
+
+
+def read_record(fmu: str | Path) -> dict | None:
+    """The build record of ``fmu``, or ``None`` when there is none or it describes another
+    file (the FMU was replaced after the build)."""
+    path = record_path(fmu)
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get("fmu_sha256") != file_hash(fmu):
+        return None
+    return record
+
+
+def _package_files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*.py"))
+            if "__pycache__" not in p.parts}
+
+
+def stale_reason(fmu: str | Path, package: str | Path | None = None) -> str | None:
+    """Why ``fmu`` would not run the physics of ``package`` (default: this package), in one
+    line, or ``None``."""
+    package = Path(package) if package is not None else PACKAGE
+    with zipfile.ZipFile(fmu) as z:
+        bundled = {n[len(_BUNDLED):]: z.read(n) for n in z.namelist()
+                   if n.startswith(_BUNDLED) and n.endswith(".py")
+                   and not n.startswith(_BUNDLED + "_compiled/")}
+    if bundled:  # an FMU without the package (another slave) is not judged by it
+        own = _package_files(package)
+        differ = sorted(k for k in own.keys() | bundled.keys() if own.get(k) != bundled.get(k))
+        if differ:
+            more = f" (and {len(differ) - 1} more)" if len(differ) > 1 else ""
+            return (f"its copy of gearpair/{differ[0]}{more} differs from "
+                    f"{package / differ[0]}")
+    record = read_record(fmu) or {}
+    for path, digest in sorted(record.get("sources", {}).items()):
+        if Path(path).is_file() and file_hash(path) != digest:
+            return f"{path} changed after the build"
+    return None
+
+
+def _not_found(where: str) -> SceneError:
+    return SceneError(
+        f"no {FMU_NAME} {where}: build it with 'python build_fmu.py' in the gearpair "
+        f"repository (it writes dist/{FMU_NAME}; run from that folder or set {ENV} to the "
+        "file), or pass its path (--fmu PATH, Scene.run(fmu_path=...))")
+
+
+def _rebuild(fmu: Path, builder: Path) -> None:
+    spec = importlib.util.spec_from_file_location("_gearpair_build_fmu", builder)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    mod.build(fmu.parent, package=PACKAGE)
+
+
+def find_fmu(fmu_path: str | Path | None = None, rebuild_stale: bool = True) -> Path:
+    """The FMU to run: ``fmu_path``, else ``$GEARPAIR_FMU``, else ``./dist/GearPair.fmu``.
+
+    A stale FMU (`stale_reason`) found by default is rebuilt with the builder of its build
+    record when ``rebuild_stale`` and the builder exists; otherwise, and for a passed FMU, a
+    `SceneWarning` says why it is stale and the run uses it.
+
+    Raises
+    ------
+    SceneError
+        No FMU there, with how to build or pass one.
+    """
+    if fmu_path is not None:
+        fmu, where = Path(fmu_path), f"at {fmu_path}"
+    elif os.environ.get(ENV):
+        fmu, where = Path(os.environ[ENV]), f"at {os.environ[ENV]} (${ENV})"
+    else:
+        fmu = Path.cwd() / "dist" / FMU_NAME
+        where = f"in {fmu.parent} (no {ENV} set)"
+    if not fmu.is_file():
+        raise _not_found(where)
+    reason = stale_reason(fmu)
+    if reason is None:
+        return fmu
+    builder = (read_record(fmu) or {}).get("builder")
+    if fmu_path is None and rebuild_stale and builder and Path(builder).is_file():
+        print(f"gearpair: rebuilding stale {fmu}: {reason}", file=sys.stderr, flush=True)
+        _rebuild(fmu, Path(builder))
+        reason = stale_reason(fmu)
+        if reason is None:
+            return fmu
+    warnings.warn(SceneWarning(f"{fmu} is stale ({reason}): it runs other physics than this "
+                               "gearpair; rebuild it with 'python build_fmu.py'"), stacklevel=2)
+    return fmu

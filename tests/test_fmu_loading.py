@@ -299,3 +299,44 @@ def test_calls_after_the_python_host_finalized_are_answered_by_the_c_layer(fmu_p
         assert not said
         assert "GearPair FMU instance late: fmi2DoStep: the host's Python interpreter has " \
             "finalized" in r.stderr, r.stderr[-3000:]
+
+
+_PY_HOST_NO_SCIPY = """
+import fmpy
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+fmu = {fmu!r}
+md = fmpy.read_model_description(fmu)
+said = []
+cb = fmi2CallbackFunctions()
+cb.logger = fmi2CallbackLoggerTYPE(
+    lambda env, inst, status, cat, msg: said.append((status, cat, msg.decode())))
+s = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu), modelIdentifier="GearPair")
+try:
+    s.instantiate(callbacks=cb, loggingOn=False)
+except Exception:
+    print("refused")
+for status, cat, msg in said:
+    print(status, cat.decode(), msg)
+"""
+
+
+def test_a_python_host_without_scipy_gets_one_clear_error(fmu_path, tmp_path):
+    """A Python host keeps its own interpreter; when it lacks a package the FMU needs (here
+    scipy), fmi2Instantiate fails after one error message (with a category, also with
+    loggingOn false) naming it, the interpreter and the fix; no traceback."""
+    pkgs = tmp_path / "pkgs"
+    pkgs.mkdir()
+    for p in _site_packages().iterdir():
+        if not p.name.lower().startswith("scipy") and p.suffix != ".pth":
+            (pkgs / p.name).symlink_to(p)
+    python = _venv(tmp_path / "venv", pkgs)
+    r = subprocess.run([str(python), "-c", _PY_HOST_NO_SCIPY.format(fmu=str(fmu_path))],
+                       cwd=tmp_path, env=clean_env(), capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    lines = r.stdout.splitlines()
+    assert lines[0] == "refused" and len(lines) == 2, r.stdout
+    assert lines[1].startswith("3 logStatusError fmi2Instantiate: the FMU cannot import "
+                               "scipy"), lines[1]
+    assert "the host's own Python" in lines[1] and "-m pip install" in lines[1]
+    assert "Traceback" not in r.stderr, r.stderr[-3000:]

@@ -163,6 +163,8 @@ static int debug_enabled(const Shim *s, const char *category) {
     return 0;
 }
 
+static const char *status_category(fmi2Status st);
+
 /* The message goes out as the format argument itself with every '%' doubled: a C host
  * that formats it prints the text, and hosts that take it verbatim (fmpy's ctypes logger)
  * show it as it is (a literal "%" appears doubled there). */
@@ -179,8 +181,8 @@ static void emit(Shim *s, fmi2Status status, const char *category, const char *m
         if (msg[i] == '%') *o++ = '%';
     }
     *o = 0;
-    s->host.logger(s->host.componentEnvironment, s->name, status, category ? category : "",
-                   buf);
+    s->host.logger(s->host.componentEnvironment, s->name, status,
+                   category ? category : status_category(status), buf);
     if (buf != small) free(buf);
 }
 

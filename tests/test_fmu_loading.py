@@ -19,6 +19,8 @@ import pytest
 
 fmpy = pytest.importorskip("fmpy")
 
+from test_hosts import compile_c_host  # noqa: E402
+
 pytestmark = pytest.mark.fmu
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -83,24 +85,12 @@ def clean_env(**extra: str) -> dict[str, str]:
 
 
 # -- a C master with an empty environment --------------------------------------------------
-def compile_c_host(exe: Path) -> Path:
-    """examples/hosts/fmi2_host.c, built with gcc against fmpy's FMI 2 headers."""
-    gcc = shutil.which("gcc") or shutil.which("cc")
-    include = Path(fmpy.__file__).parent / "c-code"
-    if gcc is None or not (include / "fmi2Functions.h").is_file():
-        pytest.skip("no C compiler or no FMI 2 headers in fmpy")
-    subprocess.run([gcc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{include}",
-                    "-o", str(exe), str(ROOT / "examples" / "hosts" / "fmi2_host.c"), "-ldl",
-                    "-lm"], check=True)
-    return exe
-
-
 @pytest.fixture(scope="module")
 def c_run(fmu_path, tmp_path_factory):
     """run(env, unzip=None) -> CompletedProcess: the C host example, 3 steps, loggingOn,
     on an extraction of the FMU (a fresh one per module unless given)."""
     base = tmp_path_factory.mktemp("c_loading")
-    exe = compile_c_host(base / "fmi2_host")
+    exe = compile_c_host(ROOT / "examples" / "hosts" / "fmi2_host.c", base / "fmi2_host")
     unzip = Path(fmpy.extract(str(fmu_path), unzipdir=str(base / "unzip")))
     md = fmpy.read_model_description(str(fmu_path))
     vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -127,6 +117,15 @@ def _site_packages() -> Path:
     import sysconfig
 
     return Path(sysconfig.get_paths()["purelib"])
+
+
+def _packages_without(package: str, where: Path) -> Path:
+    """A folder with (links to) every package of this environment but ``package``."""
+    where.mkdir()
+    for p in _site_packages().iterdir():
+        if not p.name.lower().startswith(package) and p.suffix != ".pth":
+            (where / p.name).symlink_to(p)
+    return where
 
 
 def _one_error(proc) -> list[str]:
@@ -171,11 +170,7 @@ def test_an_environment_without_numpy_gives_one_clear_error(c_run, tmp_path):
     status error that names numpy, where it looked and the fix; the host exits 1 (its own
     status for a failed call), no crash, no traceback."""
     _shared_python_or_skip()
-    pkgs = tmp_path / "pkgs"
-    pkgs.mkdir()
-    for p in _site_packages().iterdir():
-        if not p.name.lower().startswith("numpy") and p.suffix != ".pth":
-            (pkgs / p.name).symlink_to(p)
+    pkgs = _packages_without("numpy", tmp_path / "pkgs")
     python = _venv(tmp_path / "venv", pkgs)
     proc = c_run(clean_env(GEARPAIR_PYTHON=str(python)))
     assert proc.returncode == 1, proc.stderr[-3000:]
@@ -324,12 +319,7 @@ def test_a_python_host_without_scipy_gets_one_clear_error(fmu_path, tmp_path):
     """A Python host keeps its own interpreter; when it lacks a package the FMU needs (here
     scipy), fmi2Instantiate fails after one error message (with a category, also with
     loggingOn false) naming it, the interpreter and the fix; no traceback."""
-    pkgs = tmp_path / "pkgs"
-    pkgs.mkdir()
-    for p in _site_packages().iterdir():
-        if not p.name.lower().startswith("scipy") and p.suffix != ".pth":
-            (pkgs / p.name).symlink_to(p)
-    python = _venv(tmp_path / "venv", pkgs)
+    python = _venv(tmp_path / "venv", _packages_without("scipy", tmp_path / "pkgs"))
     r = subprocess.run([str(python), "-c", _PY_HOST_NO_SCIPY.format(fmu=str(fmu_path))],
                        cwd=tmp_path, env=clean_env(), capture_output=True, text=True,
                        timeout=300)

@@ -320,7 +320,7 @@ static int ask_python(const char *python, const char *script, char *out, size_t 
     posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
     char *argv[] = {(char *)python, (char *)script, NULL};
     pid_t pid;
-    int rc = posix_spawn(&pid, python, &fa, NULL, argv, environ);
+    int rc = posix_spawnp(&pid, python, &fa, NULL, argv, environ); /* a bare name: PATH */
     posix_spawn_file_actions_destroy(&fa);
     close(fds[1]);
     if (rc) {

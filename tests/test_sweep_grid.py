@@ -119,6 +119,22 @@ def test_zarr_local_store_writes_through_a_temporary_file_and_rename(tmp_path, m
     assert list(a[...]) == [1.0, 2.0, 1.0, 1.0]
 
 
+def test_a_half_made_store_of_a_killed_creation_is_cleared(tmp_path):
+    """A creation killed before its rename leaves a hidden folder beside the store; the next
+    creation removes it when its process is gone, and never touches a live one's."""
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    stale = tmp_path / f".h.zarr.creating-{dead}"
+    live = tmp_path / f".h.zarr.creating-{os.getppid()}"
+    for d in (stale, live):
+        d.mkdir()
+        (d / "zarr.json").write_text("{}")
+    run_grid(Grid.parse(["mu=0.01"]), QUICK, tmp_path / "h.zarr", scheduler="serial",
+             progress=False)
+    assert not stale.exists() and live.exists()
+    assert int(open_dataset(tmp_path / "h.zarr")["done"].sum()) == 1
+
+
 def test_chunks_hold_neighbouring_points():
     assert chunk_shape((120, 7, 3)) == (3, 7, 3)
     assert chunk_shape((1000,)) == (64,) and chunk_shape((5, 100)) == (1, 64)

@@ -98,6 +98,22 @@ def _lock(path: Path) -> _Lock | None:
     return _Lock(fd)
 
 
+def _remove_unfinished(path: Path) -> None:
+    """Remove the half-made stores a killed creation of ``path`` left beside it
+    (``.NAME.creating-PID`` of a process that is gone): never a store, which is only ever
+    renamed into place complete."""
+    for tmp in path.parent.glob(f".{path.name}.creating-*"):
+        try:
+            pid = int(tmp.name.rpartition("-")[2])
+            os.kill(pid, 0)
+        except ValueError:
+            continue
+        except ProcessLookupError:
+            shutil.rmtree(tmp, ignore_errors=True)
+        except OSError:  # alive, another user's
+            continue
+
+
 def _zarr():
     try:
         import xarray  # noqa: F401 - readers need it; say so before anything is written
@@ -240,6 +256,7 @@ class Store:
         old = None
         if replace_old:  # only a store is ever replaced, never another folder or file,
             old = cls.open(path, mode="r+")  # and not one that another sweep is writing
+        _remove_unfinished(path)
         tmp = path.parent / f".{path.name}.creating-{os.getpid()}"
         try:
             if tmp.exists():

@@ -109,7 +109,7 @@ def test_sweep_load_check_leaves_points_outside_the_model_to_the_run(no_runs, tm
                                                                      capsys):
     """A point outside the model (a negative torque without backlash) is an `invalid` record
     of the run, not an error of the load check before it; a value outside its parameter's
-    range (mu = -1) is refused before any point runs (issue 26), one line, exit status 2."""
+    range (mu = -1) is refused before any point runs, one line, exit status 2."""
     with pytest.raises(AssertionError, match="run started"):
         main(["sweep", "--scheduler", "serial", "--out", str(tmp_path / "t"), "torque", "--",
               "-1000,3900"])

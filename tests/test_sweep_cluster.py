@@ -1,4 +1,4 @@
-"""A lost worker loses nothing (issue 26): a real dask.distributed cluster started the way a
+"""A lost worker loses nothing: a real dask.distributed cluster started the way a
 user starts one (`dask scheduler`, two `dask worker` processes), one worker killed mid-sweep;
 every point completes exactly once and the store equals an uninterrupted run bit for bit."""
 

@@ -1,4 +1,4 @@
-"""Parameter grids stored as they finish (issue 26): grids and point lists, the Zarr store
+"""Parameter grids stored as they finish: grids and point lists, the Zarr store
 read back with xarray, resuming, refusing a store of another sweep, and a client killed at
 random moments."""
 

@@ -24,11 +24,11 @@ measures in one run, side by side on the same machine:
   same C layer as GearPair.fmu); the cost of one set+doStep+get call; the first
   instantiation with empty caches (the FMU's shipped code) against warm ones and, outside
   ``--quick``, with ``GEARPAIR_SHIPPED_CODE=0`` (compile).
-- **the FMU in a C master** (issue #16): per-step cost of set 2 inputs + doStep + get 4
+- **the FMU in a C master**: per-step cost of set 2 inputs + doStep + get 4
   outputs at 1e-4 and 1e-3 s steps in ``benchmarks/fmi2_bench_host.c`` beside fmpy's, with
   the no-op slave and the engine's own work, and the first start with empty and warm caches
   (skipped without gcc or the repository).
-- **cost of effects** (issue #5): wall time per simulated second of every shipped scene and
+- **cost of effects**: wall time per simulated second of every shipped scene and
   of the effect ladder torsional constant stiffness -> time-varying -> 6-DOF -> sliding ->
   stick-slip.
 - **memory** (``--memory``, in ``--full``): peak RSS of a 100 s run recorded every 1e-4 s.

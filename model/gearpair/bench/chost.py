@@ -1,4 +1,4 @@
-"""The FMU in a C master: per-step cost and first start (issue #16, item 4).
+"""The FMU in a C master: per-step cost and first start.
 
 A small timing host of the repository's own (``benchmarks/fmi2_bench_host.c``, compiled
 here with gcc against the FMI 2 headers that fmpy ships) runs the loop a co-simulation

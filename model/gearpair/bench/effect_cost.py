@@ -1,4 +1,4 @@
-"""Cost of effects (issue #5): the shipped scenes and the effect ladder."""
+"""Cost of effects: the shipped scenes and the effect ladder."""
 
 from __future__ import annotations
 

@@ -37,7 +37,7 @@ def _target(what: str, wall, cpu, limit: float, fmt: str, higher_is_better: bool
 
 
 def targets(result: dict) -> list[dict]:
-    """Each issue target: the measured value in wall time (the target's measure) and in CPU
+    """Each target: the measured value in wall time (the target's measure) and in CPU
     time (steadier on a shared machine), whether it is met and by what factor it is not."""
     out = []
     for kind, whose in (("", "scipy on the reference engine"),
@@ -91,7 +91,7 @@ def targets(result: dict) -> list[dict]:
 
 
 def _host_targets(ch: dict | None) -> list[dict]:
-    """Issue #16: the slave's own work per step in a C host at a 1e-4 s step (GearPair -
+    """The slave's own work per step in a C host at a 1e-4 s step (GearPair -
     no-op - engine), and the first start with empty caches."""
     if not ch or ch["note"]:
         return []

@@ -1,8 +1,11 @@
 """FMI 2.0 co-simulation slave for the gearpair model (built with pythonfmu).
 
 Thin plumbing over the engine contract in ``gearpair.engine``: parameters and effect switches
-become FMU parameters, ``do_step`` validates the inputs, advances the engine to exactly
-``currentCommunicationPoint + communicationStepSize`` and copies its outputs. Nothing raises
+become FMU parameters, ``do_step`` validates the inputs and advances the engine to exactly
+``currentCommunicationPoint + communicationStepSize``. The inputs and outputs live in the
+slave's step block (``gearpair.stepblock``), where the fast engine's compiled step reads and
+writes them; once a step was taken, the C layer calls that step itself, without Python
+(`GearPair.native_handoff`; ``GEARPAIR_NATIVE_STEP=0``: every call through Python). Nothing raises
 out of the slave (pythonfmu would turn any exception into fmi2Fatal). A refusal (invalid
 parameters or combination at initialization, a wrong communication point, a state that
 cannot be restored) is logged with status error and changes nothing; the FMU's C layer

@@ -20,7 +20,10 @@
  * - serialized FMU states carry a trailer (format tag, mode, length, CRC-32), so a truncated
  *   or altered state is refused with fmi2Error before the slave sees it; FMU state pointers
  *   are checked against the instance's live states;
- * - the embedded interpreter's lifetime (see `ensure_python`): exit and dlclose are safe.
+ * - the embedded interpreter's lifetime (see `ensure_python`): exit and dlclose are safe;
+ * - the native step (see `Native`): after initialization and a first step the per-step
+ *   calls (fmi2SetReal of inputs, fmi2DoStep, fmi2Get* of inputs and outputs) run the
+ *   slave's compiled engine here, without Python, from any thread.
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>

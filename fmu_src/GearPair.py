@@ -251,7 +251,8 @@ def interface(gp=None) -> list[dict[str, Any]]:
         m = f.metadata
         add(f.name, "Real", "input", "continuous", m["unit"], display_in.get(f.name),
             m["min"], m["max"], float(f.default), m["doc"] + ", held over each step")
-    add("load_speed", "Real", "input", "continuous", "rad/s", "rpm", -2e4, 2e4, 0.0,
+    add("load_speed", "Real", "input", "continuous", "rad/s", "rpm", -params_mod.SPEED_MAX,
+        params_mod.SPEED_MAX, 0.0,
         "speed of the load at the far end of the load shaft kr2 (gear 2's sense), held over "
         "each step; used only when the parameter load_speed_input is true")
 
@@ -547,13 +548,8 @@ class GearPair(Fmi2Slave):
                   o.input_torque_reaction, o.input_torque, o.gear1_speed, o.gear2_speed,
                   o.sliding_velocity)
         if summary is None:
-            cs = int(o.contact_state)
-            return values + (1.0 if cs == 2 else 0.0, 1.0 if cs == 0 else 0.0, o.mesh_force,
-                             0, 0, 1.0 if cs == 3 else 0.0, o.mesh_force, o.mesh_force)
-        return values + (summary.stick_fraction, summary.separation_fraction,
-                         summary.mesh_force_max, summary.n_events, summary.n_steps,
-                         summary.back_fraction, summary.mesh_force_mean,
-                         summary.mesh_force_min)
+            summary = self._gp.engine.StepSummary.at_instant(o)
+        return values + tuple(summary)[2:]  # the figures after t_start and t_end
 
     def _block_slots(self) -> dict[str, int]:
         """FMU variable -> slot of the step block, for the inputs and the outputs (the step
@@ -644,8 +640,7 @@ class GearPair(Fmi2Slave):
                 return self._error(
                     f"step refused: currentCommunicationPoint = {t!r} s does not match the "
                     f"FMU's time {now!r} s (restore an FMU state to go back)")
-            snap = getattr(eng, "snapshot", None)  # the fast engine's cheap rollback copy
-            saved = snap() if snap is not None else eng.get_state()
+            saved = eng.snapshot()  # the fast engine's is one copy of its state buffer
             try:
                 if not self._stepped:
                     eng.reset(t0=t, torque=float(self.torque), speed=float(self.speed),
@@ -762,10 +757,7 @@ class GearPair(Fmi2Slave):
 
     def _restore_engine(self, saved) -> bool:
         try:
-            if isinstance(saved, dict):
-                self._engine.set_state(saved)
-            else:
-                self._engine.restore(saved)
+            self._engine.restore(saved)
             return True
         except Exception as e:  # noqa: BLE001
             self._poisoned = f"engine state lost after a failed step ({type(e).__name__}: {e})"

@@ -115,7 +115,7 @@ def test_step_mean_is_the_integral_of_a_fine_record():
             e = FastEngine(P, fx, rtol=1e-10)
             e.reset(0.0, TR, 467 * RPM)
             e.advance(0.01, 3000.0, 467 * RPM)  # a torque step: the mesh rings
-            rec = e.run_grid(grid, TR, 467 * RPM)
+            rec = e.run(grid, TR, 467 * RPM)
             means.append(float(np.mean(rec["mesh_force_mean"][1:])))
         f = rec["mesh_force"]
         assert means[0] == pytest.approx(means[1], rel=1e-8)
@@ -170,7 +170,7 @@ def test_mesh_force_extremes_match_a_densely_sampled_run(fx, torque):
         e = make_engine(P, fx, "fast", rtol=1e-9)
         e.reset(0.0, torque, w)
         e.advance(ta, torque, w)
-        ns = e.run_grid(np.linspace(ta, tb, 100001), torque, w)["mesh_force"]
+        ns = e.run(np.linspace(ta, tb, 100001), torque, w)["mesh_force"]
         assert float(pick(ns)) == pytest.approx(got, abs=1e-6 * hi)
 
 

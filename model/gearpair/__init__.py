@@ -1,6 +1,8 @@
 """gearpair: spur gear pair dynamics with time-varying mesh stiffness, tooth separation,
 friction and stick-slip (Xun, Dai & Wang 2023). Physics core: no FMI, no plotting."""
 
+import importlib
+
 from .effects import Effects, StiffnessSpec
 from .engine import Engine, Outputs, StepSummary
 from .equations import Model
@@ -12,6 +14,12 @@ __all__ = ["RPM", "Effects", "Engine", "GearParams", "Geometry", "Model", "Opera
 __version__ = "0.1.0"
 
 
+# The engines by name, as data: name -> (module, class), imported on first use (the fast one
+# imports numba).
+ENGINES = {"fast": ("gearpair.fast", "FastEngine"),
+           "reference": ("gearpair.reference", "ReferenceEngine")}
+
+
 def make_engine(params: GearParams | None = None, effects: Effects | None = None,
                 engine: str = "fast", **options) -> Engine:
     """Build an engine by name with the given options.
@@ -20,12 +28,10 @@ def make_engine(params: GearParams | None = None, effects: Effects | None = None
     production path;
     ``reference``: scipy yardstick (`gearpair.reference.ReferenceEngine`).
     """
-    if engine == "reference":
-        from .reference import ReferenceEngine
-
-        return ReferenceEngine(params, effects, **options)
-    if engine == "fast":
-        from .fast import FastEngine
-
-        return FastEngine(params, effects, **options)
-    raise ValueError(f"engine = {engine!r}; choose one of: fast, reference")
+    try:
+        module, cls = ENGINES[engine]
+    except (KeyError, TypeError):
+        raise ValueError(f"engine = {engine!r}; choose one of: {', '.join(ENGINES)}") from None
+    # relative to this package: the FMU imports it under another name
+    mod = importlib.import_module(module.replace("gearpair", __name__, 1))
+    return getattr(mod, cls)(params, effects, **options)

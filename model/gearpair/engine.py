@@ -4,16 +4,21 @@ An engine owns one gear pair's continuous state (q, q', mesh travel) and discret
 (which pairs stick, the slip direction of each pair, separated or not). It is driven by
 ``advance(t_end, torque, speed)``, which integrates to ``t_end`` exactly with the inputs held
 over the step (zero-order hold, as an FMI 2.0 co-simulation master gives them), locating every
-state switch inside the step. Front doors (FMU, CLI, harness) never care which engine runs.
+state switch inside the step, and returns the step record `StepSummary`; ``run`` does the same
+over a grid and records it. Front doors (FMU, CLI, harness) never care which engine runs: they
+call these methods of `Engine`, never ask which ones an engine has.
 """
 
 from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
+
+from .params import SPEED_MAX, TORQUE_MAX
 
 CONTACT_SEPARATED = 0
 CONTACT_SLIP = 1
@@ -55,9 +60,10 @@ class Outputs:
     sliding_velocity: float
 
 
-@dataclass(frozen=True)
-class StepSummary:
-    """Figures over the last ``advance`` call that stay meaningful at coarse steps.
+class StepSummary(NamedTuple):
+    """The step record: figures over the last ``advance`` call that stay meaningful at
+    coarse steps (units in `UNITS`). A named tuple, so the FMU's doStep gets it for the
+    price of a tuple; read it by name.
 
     Attributes
     ----------
@@ -92,9 +98,42 @@ class StepSummary:
     mesh_force_mean: float = math.nan
     mesh_force_min: float = math.nan
 
+    @classmethod
+    def at_instant(cls, out: Outputs) -> StepSummary:
+        """The figures of an empty step at ``out.time``, as the FMU shows them before its
+        first step: each fraction 1 or 0 by the contact state there, the mesh force for its
+        mean and extremes."""
+        cs, f = int(out.contact_state), out.mesh_force
+        return cls(out.time, out.time, float(cs == CONTACT_STICK),
+                   float(cs == CONTACT_SEPARATED), f, 0, 0, float(cs == CONTACT_BACK), f, f)
+
+
+OUTPUT_NAMES = tuple(f.name for f in fields(Outputs))
+# What `Engine.run` records at every grid point besides the outputs: the step figures of the
+# interval ending there (the compiled recorder, `fast.loop.run_grid`, writes them in this order)
+RECORDED_FIGURES = ("stick_fraction", "separation_fraction", "mesh_force_max", "n_events",
+                    "back_fraction", "mesh_force_mean", "mesh_force_min")
+# Units of both records' fields (SI; "1" dimensionless)
+UNITS = {
+    "time": "s", "dte": "m", "mesh_force": "N", "friction_force": "N", "contact_state": "1",
+    "output_torque": "N.m", "input_torque_reaction": "N.m", "input_torque": "N.m",
+    "gear1_speed": "rad/s", "gear2_speed": "rad/s", "sliding_velocity": "m/s",
+    "t_start": "s", "t_end": "s", "stick_fraction": "1", "separation_fraction": "1",
+    "mesh_force_max": "N", "n_events": "1", "n_steps": "1", "back_fraction": "1",
+    "mesh_force_mean": "N", "mesh_force_min": "N",
+}
+
 
 class Engine(ABC):
-    """Abstract engine. Concrete engines: `gearpair.reference.ReferenceEngine`."""
+    """The contract every engine implements (`gearpair.reference.ReferenceEngine`,
+    `gearpair.fast.FastEngine`), and what it gets for free.
+
+    An engine implements `reset`, `advance_values`, `outputs`, `get_state`, `set_state` and
+    `time`; `advance` (with the input check), `run` (a loop over the grid), `output_values`,
+    `snapshot`/`restore` and `warm_up` have plain defaults here that an engine may replace
+    by faster ones with the same results (the fast engine records a whole grid in one
+    compiled call).
+    """
 
     @abstractmethod
     def reset(self, t0: float = 0.0, torque: float = 0.0, speed: float = 0.0,
@@ -102,18 +141,68 @@ class Engine(ABC):
         """Start at ``t0``; with ``static`` the deflections start at static equilibrium
         under ``torque`` (so a run has no start-up transient from zero)."""
 
-    @abstractmethod
     def advance(self, t_end: float, torque: float, speed: float,
                 load_speed: float | None = None) -> StepSummary:
         """Integrate to exactly ``t_end`` with torque (N.m) and speed (rad/s) held.
 
         ``load_speed`` (rad/s, in gear 2's sense of rotation) drives the far end of the load
         shaft kr2/cr2 when the pair sits between two inertias (a driveline); ``None`` keeps
-        the paper's load shaft, anchored to the nominal rotation Omega1 z1/z2."""
+        the paper's load shaft, anchored to the nominal rotation Omega1 z1/z2. Raises
+        ``ValueError`` naming an input out of range (`check_inputs`)."""
+        check_inputs(torque, speed, load_speed)
+        return self.advance_values(t_end, torque, speed, load_speed)
+
+    @abstractmethod
+    def advance_values(self, t_end: float, torque: float, speed: float,
+                       load_speed: float | None = None) -> StepSummary:
+        """`advance` for a caller that has validated the inputs (`check_inputs`; the FMU's
+        doStep, where each microsecond counts)."""
+
+    def run(self, grid, torque, speed, load_speed=None) -> dict[str, np.ndarray]:
+        """Step through ``grid`` (s, from the current time) and record at every point.
+
+        Parameters
+        ----------
+        grid : increasing times (s); ``grid[0]`` is the current time
+        torque, speed, load_speed : N.m, rad/s, rad/s per interval (``len(grid) - 1``
+            values or one for all, held from ``grid[i]`` to ``grid[i + 1]``); ``load_speed``
+            None as in `advance`
+
+        Returns
+        -------
+        dict of arrays over ``grid``: the `Outputs` fields after ``time`` and the step
+        figures `RECORDED_FIGURES` of the interval ending there (row 0, the start: no
+        interval, so fractions and events 0, the mesh force for its mean and extremes).
+        This loop calls `advance_values` per interval.
+        """
+        grid, T, W, L = grid_inputs(self.time, grid, torque, speed, load_speed)
+        n = len(grid)
+        rec = {k: np.zeros(n) for k in (*OUTPUT_NAMES[1:], *RECORDED_FIGURES)}
+        rec["contact_state"] = np.zeros(n, dtype=int)
+
+        def put(i: int, summ: StepSummary) -> None:
+            out = self.outputs()
+            for k in OUTPUT_NAMES[1:]:
+                rec[k][i] = getattr(out, k)
+            for k in RECORDED_FIGURES:
+                rec[k][i] = getattr(summ, k)
+
+        t, f = self.time, self.outputs().mesh_force
+        put(0, StepSummary(t, t, 0.0, 0.0, f, 0, 0, 0.0, f, f))
+        for i in range(1, n):
+            put(i, self.advance_values(float(grid[i]), float(T[i - 1]), float(W[i - 1]),
+                                       None if L is None else float(L[i - 1])))
+        return rec
 
     @abstractmethod
     def outputs(self) -> Outputs:
         """Outputs at the current time."""
+
+    def output_values(self) -> np.ndarray:
+        """The `Outputs` values after ``time``, in field order, as an array (the FMU copies
+        them every step; `outputs` is the record)."""
+        out = self.outputs()
+        return np.array([getattr(out, k) for k in OUTPUT_NAMES[1:]], dtype=float)
 
     @abstractmethod
     def get_state(self) -> dict:
@@ -123,6 +212,19 @@ class Engine(ABC):
     def set_state(self, state: dict) -> None:
         """Restore a state from `get_state` (of an engine built with the same data)."""
 
+    def snapshot(self):
+        """A copy of the whole state for a rollback within this process (`restore`); here
+        `get_state`, which an engine may replace by a cheaper copy."""
+        return self.get_state()
+
+    def restore(self, snap) -> None:
+        """Return to a `snapshot` of this engine."""
+        self.set_state(snap)
+
+    def warm_up(self) -> None:  # noqa: B027 - a hook: most engines compile nothing
+        """Load whatever the engine compiles before a run, so that the run's time does not
+        include it (once per process); the state is left as it was. Here: nothing."""
+
     @property
     @abstractmethod
     def time(self) -> float:
@@ -130,14 +232,15 @@ class Engine(ABC):
 
 
 def check_inputs(torque: float, speed: float, load_speed: float | None = None) -> None:
-    """Raise ``ValueError`` naming the input unless torque and speed are finite and in range."""
-    if type(torque) is float and type(speed) is float and abs(torque) <= 1e6 and \
-            abs(speed) <= 2e4 and (load_speed is None or (type(load_speed) is float
-                                                          and abs(load_speed) <= 2e4)):
+    """Raise ``ValueError`` naming the input unless torque and speed are finite and in range
+    (`params.TORQUE_MAX`, `params.SPEED_MAX`)."""
+    if type(torque) is float and type(speed) is float and abs(torque) <= TORQUE_MAX and \
+            abs(speed) <= SPEED_MAX and (load_speed is None or (type(load_speed) is float
+                                                                and abs(load_speed) <= SPEED_MAX)):
         return  # the usual case (the FMU's, every step) in one test; nan fails it
-    rows = [("torque", torque, 1e6, "N.m"), ("speed", speed, 2e4, "rad/s")]
+    rows = [("torque", torque, TORQUE_MAX, "N.m"), ("speed", speed, SPEED_MAX, "rad/s")]
     if load_speed is not None:
-        rows.append(("load_speed", load_speed, 2e4, "rad/s"))
+        rows.append(("load_speed", load_speed, SPEED_MAX, "rad/s"))
     for name, v, lim, unit in rows:
         try:
             x = float(v)
@@ -145,6 +248,29 @@ def check_inputs(torque: float, speed: float, load_speed: float | None = None) -
             raise ValueError(f"{name} must be a number, got {v!r}") from None
         if not math.isfinite(x) or abs(x) > lim:
             raise ValueError(f"{name} = {v!r} is out of range; allowed [-{lim:g}, {lim:g}] {unit}")
+
+
+def grid_inputs(now: float, grid, torque, speed, load_speed=None) -> tuple:
+    """Validated (grid, torque, speed, load_speed) arrays for `Engine.run` from the engine's
+    time ``now``: the grid starts there and increases strictly, the inputs (one value per
+    interval, or one for all; ``load_speed`` may be None) are finite and in range; raises
+    ``ValueError`` as `check_inputs` does for the first bad interval."""
+    grid = np.ascontiguousarray(grid, dtype=float)
+    n = len(grid)
+    if n < 1 or abs(grid[0] - now) > 1e-12 * max(1.0, abs(now)):
+        raise ValueError(f"grid must start at the current time {now!r}")
+    if n > 1 and not np.all(np.diff(grid) > 0):
+        raise ValueError("grid must increase strictly")
+    T = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, float), (n - 1,)))
+    W = np.ascontiguousarray(np.broadcast_to(np.asarray(speed, float), (n - 1,)))
+    L = None if load_speed is None else np.broadcast_to(np.asarray(load_speed, float), (n - 1,))
+    ok = np.isfinite(T) & np.isfinite(W) & (np.abs(T) <= TORQUE_MAX) & (np.abs(W) <= SPEED_MAX)
+    if L is not None:
+        ok &= np.isfinite(L) & (np.abs(L) <= SPEED_MAX)
+    if not np.all(ok):  # the same message as advance, for the first bad interval
+        i = int(np.argmin(ok))
+        check_inputs(T[i], W[i], None if L is None else L[i])
+    return grid, T, W, L
 
 
 def as_array(x) -> np.ndarray:

@@ -342,7 +342,7 @@ def load_engine() -> dict:
 
     Runs a default `FastEngine` through what its users call (``reset``, ``output_values``
     of a fresh and of an advanced state, ``advance_values`` with and without a load speed,
-    ``restore``, ``energy``, ``run_grid``) for a few microseconds of model time, so that no
+    ``restore``, ``energy``, ``run``) for a few microseconds of model time, so that no
     later call compiles. Returns a report (the same dict on later calls, with
     ``first`` False): ``source`` "shipped" (the code shipped with this package copy), "cache"
     (the user cache), "compiled" (at least one function compiled now and saved in the user
@@ -367,15 +367,15 @@ def load_engine() -> dict:
     eng.restore(saved)
     eng.output_values()
     eng.energy()
-    eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0)
-    eng.run_grid([eng.time, eng.time + 2e-6], 1000.0, 10.0, 10.0 / 2.4)
+    eng.run([eng.time, eng.time + 2e-6], 1000.0, 10.0)
+    eng.run([eng.time, eng.time + 2e-6], 1000.0, 10.0, 10.0 / 2.4)
     # the exact propagator is compiled only for the engines that use it (`fast.loop.segment`)
     effects = importlib.import_module(_PACKAGE + ".effects")
     lti = fast.FastEngine(effects=effects.Effects(friction="off", stiffness="constant"))
     lti.reset(torque=1000.0, speed=10.0)
     lti.advance_values(2e-6, 1000.0, 10.0)
     lti.output_values()
-    lti.run_grid([lti.time, lti.time + 2e-6], 1000.0, 10.0)
+    lti.run([lti.time, lti.time + 2e-6], 1000.0, 10.0)
     seconds = time.perf_counter() - t0
     counts = {k: STATS[k] - before[k] for k in STATS}
     if not CACHE:

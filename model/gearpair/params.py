@@ -19,6 +19,10 @@ RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
 # balance (checked to 50 rtol of its scale) and the event location stop meaning anything.
 RTOL_MIN, RTOL_MAX = 1e-12, 1e-3
 RTOL_META = {"unit": "1", "min": RTOL_MIN, "max": RTOL_MAX, "lo_open": False}
+# The inputs every entry point accepts (engines, FMU, scenes): |torque| in N.m, |speed| and
+# |load_speed| in rad/s. Far beyond any gear of this size (the load warning,
+# `geometry.load_implausibility`, speaks long before); they keep non-physical numbers out.
+TORQUE_MAX, SPEED_MAX = 1e6, 2e4
 
 
 def _meta(unit: str, lo: float | None, hi: float | None, doc: str, *, lo_open: bool = False):
@@ -216,10 +220,10 @@ class OperatingPoint:
     """
 
     torque: float = field(
-        default=3900.0, metadata=_meta("N.m", -1e6, 1e6, "driving torque on gear 1")
+        default=3900.0, metadata=_meta("N.m", -TORQUE_MAX, TORQUE_MAX, "driving torque on gear 1")
     )
     speed: float = field(
-        default=100.0 * RPM, metadata=_meta("rad/s", -2e4, 2e4, "speed of gear 1")
+        default=100.0 * RPM, metadata=_meta("rad/s", -SPEED_MAX, SPEED_MAX, "speed of gear 1")
     )
 
     def __post_init__(self) -> None:

@@ -197,9 +197,8 @@ class ReferenceEngine(Engine):
                         mode.separated, mode.dirs[active], mode.stuck[active], mode.back,
                         (y[A], y[AD]))
 
-    def advance(self, t_end: float, torque: float, speed: float,
-                load_speed: float | None = None) -> StepSummary:
-        check_inputs(torque, speed, load_speed)
+    def advance_values(self, t_end: float, torque: float, speed: float,
+                       load_speed: float | None = None) -> StepSummary:
         fx = self.model.effects
         if speed == 0.0 and fx.friction == "stick_slip" and fx.sliding == "paper":
             # Both pairs slide at v = 0 and, with Eq. (12), every pair's sliding velocity

@@ -1,7 +1,8 @@
 """Simulation loop and results: trajectories in SI with time first, ratios of Eqs. (26)-(27).
 
-`simulate` is a loop over `Engine.advance` on the output grid, with the inputs sampled at the
-start of each interval and held over it — exactly what an FMI 2.0 co-simulation master does,
+`simulate` is one `Engine.run` over the output grid (a loop over `Engine.advance`, or the
+engine's own compiled recorder), with the inputs sampled at the start of each interval and
+held over it — exactly what an FMI 2.0 co-simulation master does,
 so the FMU and the core see the same inputs.
 """
 
@@ -11,28 +12,25 @@ import csv
 import math
 import time as _time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .effects import Effects
-from .engine import CONTACT_BACK, Engine, Outputs
+from .engine import CONTACT_BACK, OUTPUT_NAMES, Engine
+from .engine import UNITS as ENGINE_UNITS
 from .inputs import Constant
 from .params import RPM, GearParams, OperatingPoint
 
 Input = float | Callable[[float], float]
 
-# Units of the recorded columns, for CSV headers and conversions.
-UNITS = {
-    "time": "s", "dte": "m", "mesh_force": "N", "friction_force": "N", "contact_state": "1",
-    "output_torque": "N.m", "input_torque_reaction": "N.m", "input_torque": "N.m",
-    "gear1_speed": "rad/s",
-    "gear2_speed": "rad/s", "sliding_velocity": "m/s", "stick_fraction": "1",
-    "separation_fraction": "1", "mesh_force_max": "N", "n_events": "1", "torque": "N.m",
-    "speed": "rad/s", "load_speed": "rad/s", "back_fraction": "1", "mesh_force_mean": "N",
-    "mesh_force_min": "N",
-}
+# Units of the recorded columns (the engine's records and the inputs), for CSV headers and
+# conversions, in the order files list them (the figures added later come last).
+_UNITS = {**ENGINE_UNITS, "torque": "N.m", "speed": "rad/s", "load_speed": "rad/s"}
+UNITS = {k: _UNITS[k] for k in (*OUTPUT_NAMES, "stick_fraction", "separation_fraction",
+                                "mesh_force_max", "n_events", "torque", "speed", "load_speed",
+                                "back_fraction", "mesh_force_mean", "mesh_force_min")}
 _CONVERT = {("m", "um"): 1e6, ("N", "kN"): 1e-3, ("rad/s", "rpm"): 1 / RPM, ("m", "mm"): 1e3}
 # Figures that describe the interval ending at their row (not an instant): merged, not sampled,
 # when rows are dropped.
@@ -291,49 +289,15 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
     grid = t0 + dt * np.arange(n + 1)
     grid[-1] = t_end
     _check_load(eng, params, fT, grid)
-    if hasattr(eng, "run_grid") and not isinstance(engine, Engine):
-        # Load the compiled recorder (from the on-disk cache; the first call in a process
-        # takes 0.1-1 s) on a throwaway engine, so that it counts as start-up, not run time.
-        warm = make_engine(params, effects, engine, **engine_options)
-        warm.reset(t0, fT(t0), fW(t0), static=static)
-        warm.run_grid(np.array([t0, t0 + 1e-3 * dt]), [fT(t0)], [fW(t0)])
+    eng.warm_up()  # compiled code loaded now counts as start-up, not run time
     startup = _time.perf_counter() - wall0
     wall0 = _time.perf_counter()
     eng.reset(grid[0], fT(grid[0]), fW(grid[0]), static=static)
-    names = [f.name for f in fields(Outputs)]
-    cols = {k: np.zeros(n + 1) for k in names}
-    figures = ("stick_fraction", "separation_fraction", "back_fraction", "mesh_force_mean",
-               "mesh_force_min", "mesh_force_max", "n_events")
-    extra = {k: np.zeros(n + 1) for k in (*figures, "torque", "speed")}
-
-    def record(i, out: Outputs, summ=None, T=0.0, W=0.0):
-        for k in names:
-            cols[k][i] = getattr(out, k)
-        extra["torque"][i], extra["speed"][i] = T, W
-        if summ is not None:
-            for k in figures:
-                extra[k][i] = getattr(summ, k)
-        else:
-            for k in ("mesh_force_mean", "mesh_force_min", "mesh_force_max"):
-                extra[k][i] = out.mesh_force
-
-    if hasattr(eng, "run_grid"):  # compiled engines record the whole grid in one call
-        T, W = (f.sample(grid[:-1]) if hasattr(f, "sample") else
-                np.fromiter((f(t) for t in grid[:-1]), float, n) for f in (fT, fW))
-        rec = eng.run_grid(grid, T, W)
-        data = {"time": grid, **rec}
-        data["torque"] = np.r_[fT(grid[0]), T]
-        data["speed"] = np.r_[fW(grid[0]), W]
-        data["load_speed"] = data["speed"] * _ratio(eng, params)
-        name = engine if isinstance(engine, str) else type(engine).__name__
-        return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0,
-                                 "startup_s": startup})
-    record(0, eng.outputs(), None, fT(grid[0]), fW(grid[0]))
-    for i in range(1, n + 1):
-        T, W = fT(grid[i - 1]), fW(grid[i - 1])
-        summ = eng.advance(grid[i], T, W)
-        record(i, eng.outputs(), summ, T, W)
-    data = {"time": grid, **{k: v for k, v in cols.items() if k != "time"}, **extra}
+    T, W = (f.sample(grid[:-1]) if hasattr(f, "sample") else
+            np.fromiter((f(t) for t in grid[:-1]), float, n) for f in (fT, fW))
+    data = {"time": grid, **eng.run(grid, T, W)}
+    data["torque"] = np.r_[fT(grid[0]), T]
+    data["speed"] = np.r_[fW(grid[0]), W]
     data["load_speed"] = data["speed"] * _ratio(eng, params)
     name = engine if isinstance(engine, str) else type(engine).__name__
     return Trajectory(data, {"engine": name, "wall_time_s": _time.perf_counter() - wall0,

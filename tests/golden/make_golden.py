@@ -3,7 +3,7 @@
 A refactoring of the fast engine (its package layout, its records, what numba compiles and
 inlines) must not change a single bit of any trajectory. This script runs `FastEngine` over
 
-- the shipped scenes (``examples/scenes/*.toml``, shortened), through ``run_grid``;
+- the shipped scenes (``examples/scenes/*.toml``, shortened), through ``FastEngine.run``;
 - the hard cases of ``tests/test_hard_cases.py`` (their schedules, shortened), through
   ``advance`` step by step;
 - every effect combination the engine implements (friction laws, sliding velocity, stick
@@ -53,7 +53,7 @@ class GoldenCase:
     """One run: the engine's inputs and how it is driven.
 
     ``steps`` rows are (t_end, torque, speed, load_speed) per communication step (load_speed
-    NaN: none); ``driver`` is "advance" (one call per step) or "grid" (one `run_grid`).
+    NaN: none); ``driver`` is "advance" (one call per step) or "grid" (one `FastEngine.run`).
     """
 
     name: str
@@ -204,7 +204,7 @@ def hard_cases() -> list[GoldenCase]:
 
 
 def scene_cases(t_end: float = 0.02) -> list[GoldenCase]:
-    """The shipped scenes over their first ``t_end`` s, recorded by `run_grid`."""
+    """The shipped scenes over their first ``t_end`` s, recorded by `FastEngine.run`."""
     from gearpair.scenes import load_scene
 
     out = []
@@ -251,7 +251,7 @@ def run_case(case: GoldenCase) -> dict[str, np.ndarray]:
     error = 0.0
     if case.driver == "grid":
         grid = np.r_[eng.time, s[:, 0]]
-        rec = eng.run_grid(grid, s[:, 1], s[:, 2])
+        rec = eng.run(grid, s[:, 1], s[:, 2])
         for m, k in enumerate(OUT_FIELDS + GRID_FIELDS):
             rows[:, m] = rec[k][1:]
     else:

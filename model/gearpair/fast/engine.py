@@ -4,12 +4,21 @@ records they take (`layout`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..effects import Effects
-from ..engine import Engine, Outputs, StepSummary, check_inputs
+from ..engine import (
+    OUTPUT_NAMES,
+    RECORDED_FIGURES,
+    Engine,
+    Outputs,
+    StepSummary,
+    check_inputs,
+    grid_inputs,
+)
 from ..equations import U2, Model
 from ..params import GearParams, check_rtol
 from ..stepblock import (
@@ -116,6 +125,7 @@ from .loop import eval_entry, outputs_entry, reset_entry, run_grid_entry
 from .native import compiled, handoff_table, step_entry, step_lti_entry
 from .tableaux import METHOD_CODE, RK_NK
 
+_new = tuple.__new__
 # typical magnitudes for the default absolute tolerance (as the reference)
 SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
 
@@ -293,6 +303,7 @@ class FastEngine(Engine):
                  rtol: float = 1e-8, **options) -> None:
         opts = FastOptions(**options)
         check_rtol(rtol)
+        self._made = ((params, effects, rtol), options)  # for a throwaway twin (`warm_up`)
         m = self.model = Model.build(params, effects)
         self.rtol = float(rtol)
         self.atol = SCALE * rtol if opts.atol is None else np.full(N_Y, float(opts.atol))
@@ -429,13 +440,6 @@ class FastEngine(Engine):
         self._state[:], self._last = snap
         self._stale()
 
-    def advance(self, t_end: float, torque: float, speed: float,
-                load_speed: float | None = None) -> StepSummary:
-        check_inputs(torque, speed, load_speed)
-        t_start = self.time
-        f = self.advance_values(t_end, torque, speed, load_speed)
-        return StepSummary(t_start, float(t_end), *f)
-
     def bind_block(self, block: np.ndarray) -> None:
         """Let the compiled step read its inputs from and write its step record into
         ``block`` (float64[`layout.N_X`], `layout.X_*`), which the caller keeps alive: the
@@ -462,16 +466,10 @@ class FastEngine(Engine):
         return self._step, self._step_address, self._table_address
 
     def advance_values(self, t_end: float, torque: float, speed: float,
-                       load_speed: float | None = None) -> tuple:
-        """`advance` for a caller that has validated the inputs and reads plain numbers (the
-        FMU's doStep, where each microsecond counts): no input check, no dataclass.
-
-        Returns
-        -------
-        (stick_fraction, separation_fraction, mesh_force_max, n_events, n_steps,
-        back_fraction, mesh_force_mean, mesh_force_min) of the step (`StepSummary`'s order);
-        `output_values` then has the outputs.
-        """
+                       load_speed: float | None = None) -> StepSummary:
+        """`advance` for a caller that has validated the inputs (each microsecond counts):
+        no input check; the compiled step (`native_step`) leaves the step record in the
+        step block, `output_values` then has the outputs."""
         t_start = self.time
         if not (t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be after the current time {t_start!r}")
@@ -485,7 +483,9 @@ class FastEngine(Engine):
             self._raise_failure()
         self._o_fresh = True  # the step left the outputs in wk.outputs
         r = x[X_REC + N_O:].tolist()
-        return (r[0], r[1], r[2], int(r[3]), int(r[4]), r[5], r[6], r[7])
+        # tuple.__new__: the record without the keyword handling of its constructor
+        return _new(StepSummary, (t_start, float(t_end), r[0], r[1], r[2], int(r[3]),
+                                  int(r[4]), r[5], r[6], r[7]))
 
     def _raise_failure(self) -> None:
         out = self._wk.summary
@@ -498,49 +498,26 @@ class FastEngine(Engine):
             raise ArithmeticError(
                 f"Runge-Kutta step size underflow at t = {out[O_TFAIL]:.9g} s")
 
-    def _grid_inputs(self, grid, torque, speed, load_speed) -> tuple:
-        """Validated (grid, torque, speed, load-shaft end rate) arrays for `run_grid`."""
-        grid = np.ascontiguousarray(grid, dtype=float)
-        n = len(grid)
-        if n < 1 or abs(grid[0] - self.time) > 1e-12 * max(1.0, abs(self.time)):
-            raise ValueError(f"grid must start at the current time {self.time!r}")
-        if n > 1 and not np.all(np.diff(grid) > 0):
-            raise ValueError("grid must increase strictly")
-        T = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, float), (n - 1,)))
-        W = np.ascontiguousarray(np.broadcast_to(np.asarray(speed, float), (n - 1,)))
-        L = None if load_speed is None else np.broadcast_to(np.asarray(load_speed, float),
-                                                            (n - 1,))
-        ok = np.isfinite(T) & np.isfinite(W) & (np.abs(T) <= 1e6) & (np.abs(W) <= 2e4)
-        if L is not None:
-            ok &= np.isfinite(L) & (np.abs(L) <= 2e4)
-        if not np.all(ok):  # the same message as advance, for the first bad interval
-            i = int(np.argmin(ok))
-            check_inputs(T[i], W[i], None if L is None else L[i])
+    def warm_up(self) -> None:
+        """Load the compiled recorder of `run` (from the on-disk cache; the first call in a
+        process takes 0.1-1 s) through a throwaway engine of the same data, unless it is
+        loaded: the state and work buffers of this one stay untouched."""
+        sig = tuple(numba.typeof(a) for a in
+                    (*self._args, np.zeros(2), (np.zeros(1),) * 3, np.zeros((N_REC, 2)),
+                     self._lti))
+        if sig in run_grid_entry.overloads:
+            return
+        warm = FastEngine(*self._made[0], **self._made[1])
+        warm.reset(0.0, 1000.0, 10.0)
+        warm.run(np.array([0.0, 1e-9]), 1000.0, 10.0)
+
+    def run(self, grid, torque, speed, load_speed=None) -> dict:
+        """`Engine.run` in one compiled call: the same records as `advance_values` +
+        `outputs` per point, without the Python round trip (about 20 us) per point."""
+        grid, T, W, L = grid_inputs(self.time, grid, torque, speed, load_speed)
         mp = self._md.par
-        yad = np.zeros(n - 1) if L is None else \
+        yad = np.zeros(len(grid) - 1) if L is None else \
             np.ascontiguousarray(-mp[P_RB2] * (L - W * mp[P_RATIO]))
-        return grid, T, W, yad
-
-    def run_grid(self, grid, torque, speed, load_speed=None) -> dict:
-        """Step through ``grid`` (s, from the current time) in one compiled call and record
-        at every point: what `results.simulate` gets from `advance` + `outputs` per point,
-        without the Python round trip (about 20 us) per point.
-
-        Parameters
-        ----------
-        grid : increasing times (s); ``grid[0]`` is the current time
-        torque, speed, load_speed : N.m, rad/s, rad/s per interval (``len(grid) - 1``
-            values, held from ``grid[i]`` to ``grid[i + 1]``); ``load_speed`` None as in
-            `advance`
-
-        Returns
-        -------
-        dict of arrays over ``grid``: the `Outputs` fields and the `StepSummary` figures
-        ``stick_fraction``, ``separation_fraction``, ``back_fraction``, ``mesh_force_mean``,
-        ``mesh_force_min``, ``mesh_force_max``, ``n_events`` of the interval ending there
-        (row 0: the start).
-        """
-        grid, T, W, yad = self._grid_inputs(grid, torque, speed, load_speed)
         n = len(grid)
         rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
         self._stale()
@@ -549,12 +526,9 @@ class FastEngine(Engine):
             self._last = (float(grid[filled - 2]), float(grid[filled - 1]))
         if filled < n:
             self._raise_failure()
-        names = [f.name for f in fields(Outputs)][1:]  # time first, then the N_O values
-        data = {k: rec[m] for m, k in enumerate(names)}
+        data = {k: rec[m] for m, k in enumerate(OUTPUT_NAMES[1:])}  # time first in Outputs
         data["contact_state"] = data["contact_state"].astype(int)
-        for m, k in enumerate(("stick_fraction", "separation_fraction", "mesh_force_max",
-                               "n_events", "back_fraction", "mesh_force_mean",
-                               "mesh_force_min")):
+        for m, k in enumerate(RECORDED_FIGURES):
             data[k] = rec[N_O + m]
         return data
 

@@ -76,6 +76,21 @@ from .layout import (
 
 
 @jit_hot
+def back_compression(par, delta):
+    """Compression (m) of the back flanks at DTE ``delta``: delta + b (b = `Effects.backlash`;
+    negative while they are pressed together)."""
+    return delta + par[P_BACK]
+
+
+@jit_hot
+def flank_compression(par, delta, cs):
+    """Mesh compression (m) of contact code ``cs`` at DTE ``delta``: delta on the drive
+    flanks, `back_compression` on the back flanks (cs 2); the mesh force is km times it
+    (apart, cs 1, the callers use none)."""
+    return back_compression(par, delta) if cs == 2 else delta
+
+
+@jit_hot
 def sgn(x, fallback):
     if x > 0.0:
         return 1.0
@@ -209,11 +224,7 @@ def mesh_forces(md, wk, pc, s, s_idx, y):
     ddelta = y[7] - y[10] + y[8] + y[11]
     cs = pc.cs
     theta = 0.0 if cs == 1 else 1.0
-    comp = delta
-    if cs == 1:
-        comp = 0.0
-    elif cs == 2:
-        comp = delta + mp[P_BACK]
+    comp = 0.0 if cs == 1 else flank_compression(mp, delta, cs)
     sc[S_DELTA] = delta
     sc[S_DDELTA] = ddelta
     sc[S_KM] = km
@@ -403,11 +414,11 @@ def sep_event_values(md, cs, d, g):
     if cs == 0:
         g[0] = d
     elif cs == 2:
-        g[0] = -(d + md.par[P_BACK])
+        g[0] = -back_compression(md.par, d)
     else:
         g[0] = -d
         if md.flag[I_BACK] != 0:
-            g[1] = d + md.par[P_BACK]
+            g[1] = back_compression(md.par, d)
     return n_sep_events(md, cs)
 
 
@@ -438,10 +449,8 @@ def param_rate(md, wk, pc, s_idx, y):
     dkm = 0.0
     for i in range(pc.nact):
         dkm += md.k_slope[table_index(md, pair_xi(mp, s_idx, wk.active[i]))]
-    delta = y[1] - y[4] + y[2] + y[5]
-    if pc.cs == 2:
-        delta += mp[P_BACK]
-    return 0.5 * dkm * mp[P_RB1] * pc.speed * delta * delta
+    comp = flank_compression(mp, y[1] - y[4] + y[2] + y[5], pc.cs)
+    return 0.5 * dkm * mp[P_RB1] * pc.speed * comp * comp
 
 
 @jit_hot

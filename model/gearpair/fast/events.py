@@ -18,6 +18,7 @@ from ..jitcache import jit, jit_hot
 from .contact import (
     evaluate,
     event_values,
+    flank_compression,
     n_events,
     pair_k,
     pair_v,
@@ -36,7 +37,6 @@ from .layout import (
     O_FINT,
     O_FMAX,
     O_FMIN,
-    P_BACK,
     P_RB1,
     P_SPACING,
     P_TTOL,
@@ -152,7 +152,7 @@ def events_light(md, wk, pc, hs, t, yk, g):
     for i in range(pc.nact):
         xi = pair_xi(mp, s, act[i])
         km += pair_k(md, xi, xi, pc.nact)
-    return km * (delta + mp[P_BACK] if sep == 2 else delta)
+    return km * flank_compression(mp, delta, sep)
 
 
 @jit_hot

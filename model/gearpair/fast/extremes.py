@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 from ..jitcache import jit, jit_hot
-from .contact import pair_k, pair_k_and_slope, pair_xi, table_index
+from .contact import flank_compression, pair_k, pair_k_and_slope, pair_xi, table_index
 from .events import extend, interp, record_force
 from .layout import (
     I_KIND,
@@ -27,7 +27,6 @@ from .layout import (
     NZ,
     O_FMAX,
     O_FMIN,
-    P_BACK,
     P_RB1,
     P_RTOL,
     R_FSTG,
@@ -86,8 +85,7 @@ def cubic_turns(f0, d0, f1, d1, h):
 def compression(md, pc, y):
     """Mesh compression (m) at state y: delta on the drive flank, delta + b on the back
     flank (the mesh force is km times it; apart it is not used)."""
-    comp = y[1] - y[4] + y[2] + y[5]
-    return comp + md.par[P_BACK] if pc.cs == 2 else comp
+    return flank_compression(md.par, y[1] - y[4] + y[2] + y[5], pc.cs)
 
 
 @jit_hot
@@ -323,9 +321,7 @@ def exact_terms(md, A, z, km, cs):
     from the rows of A z, as `lti.lti_dd`)."""
     if cs == 1:
         return 0.0, 0.0, 0.0
-    comp = z[1] - z[4] + z[2] + z[5]
-    if cs == 2:
-        comp += md.par[P_BACK]
+    comp = flank_compression(md.par, z[1] - z[4] + z[2] + z[5], cs)
     dd = 0.0
     for m in range(NZ):
         dd += (A[7, m] - A[10, m] + A[8, m] + A[11, m]) * z[m]

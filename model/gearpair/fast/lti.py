@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from ..jitcache import jit, jit_hot
-from .contact import n_events, pair_k, pair_xi, rhs, solve_small
+from .contact import flank_compression, n_events, pair_k, pair_xi, rhs, solve_small
 from .events import events_at, falls, illinois, illinois_point, record_force
 from .extremes import evaluated_terms, exact_terms, stretch_extremes
 from .layout import (
@@ -26,7 +26,6 @@ from .layout import (
     NZ,
     O_FINT,
     O_NSTEPS,
-    P_BACK,
     P_C,
     P_IRB1,
     P_KB,
@@ -339,8 +338,7 @@ def lti_quiet(md, A, z, cs, W):
         gkg += ga * W[a, nf + 1]
         comp_p += ga * W[a, nf]
         energy += 0.5 * z[6 + ia] * z[6 + ia] / mp[P_MINV + ia]
-    if cs == 2:
-        comp_p += mp[P_BACK]
+    comp_p = flank_compression(mp, comp_p, cs)
     # e^T K e from K = -M A (rows of the free coordinates), e = q - q_p
     for a in range(nf):
         ia = free_index(nf, a)
@@ -359,8 +357,7 @@ def lti_quiet(md, A, z, cs, W):
 def comp_of(par, z, cs):
     if cs == 1:
         return 0.0
-    d = z[1] - z[4] + z[2] + z[5]
-    return d + par[P_BACK] if cs == 2 else d
+    return flank_compression(par, z[1] - z[4] + z[2] + z[5], cs)
 
 
 @jit_hot

@@ -540,7 +540,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             _add_compiled_engine(staging / "gearpair", mod.BUNDLE, progress)
             docs = Path(tmp) / "documentation"
             docs.mkdir()
-            (docs / "index.html").write_text(render_documentation(spec, mod.CHOICES),
+            (docs / "index.html").write_text(render_documentation(spec, mod.choices(spec)),
                                              encoding="utf-8")
             progress("packing the FMU with pythonfmu")
             fmu = FmuBuilder.build_FMU(
@@ -555,7 +555,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             _rewrite_zip(fmu, {"modelDescription.xml": complete_model_description(xml, spec)})
             progress(f"compiling the FMU's C layer ({Path(c_compiler()).name})")
             add_c_layer(fmu, lo_open={v["name"] for v in spec if v["lo_open"]},
-                        choices=mod.CHOICES, native=True)
+                        choices=mod.choices(spec), native=True)
             write_build_record(fmu, script)
     finally:
         # The builder imports GearPair and gearpair from temporary folders: forget them so

@@ -43,33 +43,17 @@ STATE_FORMAT = "gearpair-fmu-state/1"
 BUNDLE = "_gearpair_fmu"  # import name of the bundled package (never ``gearpair``)
 RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
 
-# Choices of the integer-coded structural parameters: FMU name -> (Effects field, codes).
-# The codes are part of the FMU interface: append, never reorder.
-CHOICES: dict[str, tuple[str, tuple[str, ...]]] = {
-    "stiffness_model": ("stiffness", ("potential_energy", "constant", "rectangular")),
-    "friction_law": ("friction", ("off", "nominal", "regularized", "stick_slip")),
-    "sliding": ("sliding", ("paper", "full")),
-    "stick_tie": ("stick_tie", ("exact", "paper")),
-    "engine": ("engine", ("fast", "reference")),
-    "dof": ("dof", ("full", "torsional")),
-}
-CHOICE_DEFAULTS = {"stiffness_model": 0, "friction_law": 3, "sliding": 0, "stick_tie": 0,
-                   "engine": 0, "dof": 0}
-CHOICE_DOCS = {
-    "stiffness_model": "mesh stiffness law per tooth pair",
-    "friction_law": "tooth friction law",
-    "sliding": "relative sliding velocity: Eq. (12) translations only (paper) or with the "
-    "rotational vibration (full)",
-    "stick_tie": "how stuck surfaces move together: v = 0 held exactly (exact) or "
-    "Eqs. (19)-(21) (paper)",
-    "engine": "integrator: numba-compiled (fast; falls back to reference without numba) "
-    "or the scipy yardstick (reference)",
-    "dof": "degrees of freedom: the 6-DOF model (full) or u1, u2 only with rigid supports "
-    "(torsional; with friction_law 3 it needs sliding 1)",
-}
-BACKLASH_MAX = 1e-3  # m, as gearpair.effects.BACKLASH_MAX
-MU_STATIC_MAX = 1.0  # as gearpair.effects.MU_STATIC_MAX
-STRIBECK_MAX = 1.0  # m/s, as gearpair.effects.STRIBECK_MAX
+# The slave's own choice (not an effect; the effects' choices, codes and ranges come from
+# `gearpair.effects.OPTIONS`): the integrator, coded as its index in `gearpair.ENGINES`.
+ENGINE_DOC = ("integrator: numba-compiled (fast; falls back to reference without numba) or "
+              "the scipy yardstick (reference)")
+# The parameters after GearParams' and the outputs added later, in registration order (value
+# references follow it): the effects' FMU parameters (`gearpair.effects.OPTIONS`, "fmu") and the
+# slave's own. Append, never reorder: a new effect's parameter goes at the end.
+LATER_VARIABLES = ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
+                   "stick_tie", "engine", "backlash", "dof", "load_speed_input", "rtol",
+                   "mu_static", "stribeck_velocity", "back_fraction", "mesh_force_mean",
+                   "mesh_force_min")
 
 # Display units chosen for parameters by their unit.
 _PARAM_DISPLAY_UNIT = {"rad": "deg", "m": "mm"}
@@ -229,9 +213,11 @@ def interface(gp=None) -> list[dict[str, Any]]:
     """Every FMU variable in registration (value reference) order, as plain dicts.
 
     Keys: name, type (Real/Integer/Boolean), causality, variability, unit, display_unit, min,
-    max, start (None for outputs), description. The single source for the slave's variables,
-    the modelDescription post-processing and the documentation page; parameter data come
-    from ``GearParams.describe()`` and the input data from ``OperatingPoint``.
+    max, start (None for outputs), description, lo_open, and for an integer-coded choice
+    field (what it sets) and codes (the choices in code order, `choices`). The single source
+    for the slave's variables, the modelDescription post-processing and the documentation
+    page; parameter data come from ``GearParams.describe()``, the effects' from their
+    metadata (``gearpair.effects.OPTIONS``) and the input data from ``OperatingPoint``.
     """
     if gp is None:
         gp = _import_gearpair(None)
@@ -241,10 +227,10 @@ def interface(gp=None) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
 
     def add(name, typ, causality, variability, unit=None, display_unit=None, lo=None,
-            hi=None, start=None, description="", lo_open=False):
+            hi=None, start=None, description="", lo_open=False, field=None, codes=None):
         out.append(dict(name=name, type=typ, causality=causality, variability=variability,
                         unit=unit, display_unit=display_unit, min=lo, max=hi, start=start,
-                        description=description, lo_open=lo_open))
+                        description=description, lo_open=lo_open, field=field, codes=codes))
 
     display_in = {"torque": None, "speed": "rpm"}
     for f in fields(params_mod.OperatingPoint):
@@ -269,60 +255,79 @@ def interface(gp=None) -> list[dict[str, Any]]:
             None if is_int else row["unit"], _PARAM_DISPLAY_UNIT.get(row["unit"]),
             row["min"], row["max"], row["default"], doc, lo_open=bool(row.get("lo_open")))
 
-    for name in ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
-                 "stick_tie", "engine", "backlash", "dof"):
-        if name == "backlash":
-            add(name, "Real", "parameter", "fixed", "m", "um", 0.0, BACKLASH_MAX, 0.0,
-                "clearance between drive and back flanks along the line of action; 0: no back "
-                "flank (the paper). > 0 catches torque reversal on the back flanks (needs "
-                "separation true)")
-        elif name == "separation":
-            add(name, "Boolean", "parameter", "fixed", start=True,
-                description="tooth separation, Eq. (8): mesh force and mesh damping vanish "
-                "when the teeth part (false: the mesh spring also pulls)")
-        elif name == "v_eps":
-            add(name, "Real", "parameter", "fixed", "m/s", None, 1e-9, 1.0, 1e-4,
-                "regularization velocity of friction_law = 2 (regularized), tanh(v/v_eps)")
+    effects_mod = importlib.import_module(gp.__name__ + ".effects")
+    defaults = effects_mod.Effects().values()
+    by_fmu = {m["fmu"]: (name, m) for name, m in effects_mod.OPTIONS.items()}
+    unplaced = sorted(set(by_fmu) - set(LATER_VARIABLES))
+    if unplaced:
+        raise RuntimeError(f"effect parameter(s) {', '.join(unplaced)} have no place in "
+                           "LATER_VARIABLES (append them: value references never move)")
+    appended = {row[0]: row for row in APPENDED_OUTPUTS}
+    for name in LATER_VARIABLES:
+        if name in by_fmu:
+            field_name, m = by_fmu[name]
+            add(name, **_effect_variable(m, defaults[field_name]), field=field_name)
+        elif name == "engine":
+            engines = tuple(gp.ENGINES)
+            add(name, "Integer", "parameter", "fixed", None, None, 0, len(engines) - 1, 0,
+                f"{ENGINE_DOC}: {_listing(engines)}", field="engine", codes=engines)
+        elif name == "load_speed_input":
+            add(name, "Boolean", "parameter", "fixed", start=False,
+                description="true: the load shaft kr2/cr2 ends at a load turning at the input "
+                "load_speed (a driveline; power flows both ways); false: it ends at the "
+                "nominal rotation (the paper)")
+        elif name == "rtol":
+            add("rtol", "Real", "parameter", "fixed", "1", None, params_mod.RTOL_MIN,
+                params_mod.RTOL_MAX, 1e-8, "relative tolerance of the engine's integrator")
         else:
-            codes = CHOICES[name][1]
-            listing = ", ".join(f"{i} {c}" for i, c in enumerate(codes))
-            add(name, "Integer", "parameter", "fixed", None, None, 0, len(codes) - 1,
-                CHOICE_DEFAULTS[name], f"{CHOICE_DOCS[name]}: {listing}")
-    add("load_speed_input", "Boolean", "parameter", "fixed", start=False,
-        description="true: the load shaft kr2/cr2 ends at a load turning at the input "
-        "load_speed (a driveline; power flows both ways); false: it ends at the nominal "
-        "rotation (the paper)")
-    add("rtol", "Real", "parameter", "fixed", "1", None, params_mod.RTOL_MIN,
-        params_mod.RTOL_MAX, 1e-8,
-        "relative tolerance of the engine's integrator")
-    # Appended after rtol so the value references of the earlier variables stay as they were.
-    add("mu_static", "Real", "parameter", "fixed", "1", None, 0.0, MU_STATIC_MAX, 0.0,
-        "static friction coefficient bounding the static friction in the stick test of "
-        "Eq. (14) (mu stays the kinetic coefficient); 0: equal to mu (the paper); otherwise "
-        "it must be >= mu, with friction_law 3 (stick_slip), or 2 (regularized) together with "
-        "stribeck_velocity")
-    add("stribeck_velocity", "Real", "parameter", "fixed", "m/s", None, 0.0, STRIBECK_MAX, 0.0,
-        "Stribeck velocity v_s: the sliding coefficient is mu + (mu_static - mu) "
-        "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3")
-    for name, typ, unit, dunit, lo, hi, doc in APPENDED_OUTPUTS:
-        add(name, typ, "output", "continuous", unit, dunit, lo, hi, None, doc)
+            _, typ, unit, dunit, lo, hi, doc = appended[name]
+            add(name, typ, "output", "continuous", unit, dunit, lo, hi, None, doc)
     return out
 
 
-def _combination_error(values) -> str | None:
-    """The first combination of parameters the model refuses, said in the FMU's names and
-    codes (``values`` has the parameters as attributes, codes already in range), or None."""
-    def code(name: str) -> str:
-        c = int(getattr(values, name))
-        return f"{name} = {c} ({CHOICES[name][1][c]})"
+def _listing(codes) -> str:
+    return ", ".join(f"{i} {c}" for i, c in enumerate(codes))
 
-    if values.dof == 1 and values.friction_law == 3 and values.sliding == 0:
-        return (f"{code('dof')} with {code('friction_law')} needs sliding = 1 (full): the "
-                "paper's sliding velocity (Eq. (12)) moves only with the support deflections, "
-                "which the torsional model holds still, so no stick could form")
-    if values.backlash > 0.0 and not values.separation:
-        return (f"backlash = {values.backlash:g} m needs separation = true: a back flank "
-                "only matters once the drive flanks can separate")
+
+def _effect_variable(m: dict, default) -> dict:
+    """`interface` arguments of an effect's FMU parameter from its metadata
+    (`gearpair.effects.OPTIONS`): a choice as its code (the index), a number with 0 for None."""
+    if m["kind"] == "choice":
+        codes = m["fmu_choices"]
+        return dict(typ="Integer", causality="parameter", variability="fixed", lo=0,
+                    hi=len(codes) - 1, start=codes.index(default),
+                    description=f"{m['fmu_doc']}: {_listing(codes)}", codes=codes)
+    if m["kind"] == "bool":
+        return dict(typ="Boolean", causality="parameter", variability="fixed",
+                    start=bool(default), description=m["fmu_doc"])
+    return dict(typ="Real", causality="parameter", variability="fixed", unit=m["unit"],
+                display_unit=m["display_unit"], lo=0.0 if m["none"] else m["min"],
+                hi=m["max"], start=0.0 if default is None else float(default),
+                description=m["fmu_doc"])
+
+
+def choices(spec: list[dict]) -> dict[str, tuple[str, tuple[str, ...]]]:
+    """The integer-coded parameters of ``spec`` (`interface`): FMU name -> (what it sets,
+    the choices in code order)."""
+    return {v["name"]: (v["field"], v["codes"]) for v in spec if v["codes"]}
+
+
+def _combination_error(effects_mod, values: dict) -> str | None:
+    """The first combination the model refuses (`gearpair.effects.RULES`), said in the FMU's
+    names and codes (``values``: Effects field -> value, decoded), or None."""
+    meta = effects_mod.OPTIONS
+
+    def say(name: str, value) -> str:
+        m = meta[name]
+        if m["kind"] == "choice":
+            return f"{m['fmu']} = {m['fmu_choices'].index(value)} ({value})"
+        if m["kind"] == "bool":
+            return f"{m['fmu']} = {'true' if value else 'false'}"
+        return f"{m['fmu']} = {value:g}" + ("" if m["unit"] == "1" else f" {m['unit']}")
+
+    for rule in effects_mod.RULES:
+        if rule.refuses(values):
+            return rule.message(values, say)
     return None
 
 
@@ -462,48 +467,49 @@ class GearPair(Fmi2Slave):
         for row in params_mod.GearParams.describe():
             values[row["name"]] = getattr(self, row["name"])
         params = params_mod.GearParams(**values)
-        choice = {}
-        for name, (field_name, codes) in CHOICES.items():
-            code = getattr(self, name)
-            if isinstance(code, bool) or int(code) != code or not 0 <= int(code) < len(codes):
-                listing = ", ".join(f"{i} ({c})" for i, c in enumerate(codes))
-                raise ValueError(f"{name} = {code!r} is out of range; allowed {listing}")
-            choice[field_name] = codes[int(code)]
-        msg = _combination_error(self)
+        engine = self._decode("engine", tuple(gp.ENGINES))
+        effects = self._effects(effects_mod)
+        params_mod.check_rtol(self.rtol)
+        if engine == "fast":
+            try:
+                self._load_fast_engine()
+                return gp.make_engine(params, effects, engine="fast", rtol=float(self.rtol))
+            except ImportError as exc:  # numba missing in this host's Python
+                self.log(f"engine fast unavailable ({exc}): the reference engine "
+                         "(scipy) runs instead, much slower; install numba into the "
+                         f"environment of {sys.executable or 'this Python'}",
+                         Fmi2Status.warning)
+        return gp.make_engine(params, effects, engine=engine, rtol=float(self.rtol))
+
+    def _decode(self, name: str, codes: tuple[str, ...]) -> str:
+        """The choice an integer-coded parameter selects; ValueError naming it if out of range."""
+        code = getattr(self, name)
+        if isinstance(code, bool) or int(code) != code or not 0 <= int(code) < len(codes):
+            listing = ", ".join(f"{i} ({c})" for i, c in enumerate(codes))
+            raise ValueError(f"{name} = {code!r} is out of range; allowed {listing}")
+        return codes[int(code)]
+
+    def _effects(self, effects_mod):
+        """The `Effects` the effect parameters select (`gearpair.effects.OPTIONS`): codes,
+        ranges and combinations checked in the FMU's names (0 codes None)."""
+        values = {}
+        params_mod = sys.modules[self._gp.__name__ + ".params"]
+        for name, m in effects_mod.OPTIONS.items():
+            v = getattr(self, m["fmu"])
+            if m["kind"] == "choice":
+                values[name] = self._decode(m["fmu"], m["fmu_choices"])
+            elif m["kind"] == "bool":
+                values[name] = bool(v)
+            else:
+                params_mod.check_range(m["fmu"], v, {"unit": m["unit"], "max": m["max"],
+                                                     "min": 0.0 if m["none"] else m["min"]})
+                values[name] = None if m["none"] and v == 0.0 else float(v)
+        msg = _combination_error(effects_mod, values)
         if msg is not None:
             raise ValueError(msg)
-        params_mod.check_range("v_eps", self.v_eps, {"unit": "m/s", "min": 1e-9, "max": 1.0})
-        params_mod.check_rtol(self.rtol)
-        params_mod.check_range("backlash", self.backlash,
-                               {"unit": "m", "min": 0.0, "max": BACKLASH_MAX})
-        params_mod.check_range("mu_static", self.mu_static,
-                               {"unit": "", "min": 0.0, "max": MU_STATIC_MAX})
-        params_mod.check_range("stribeck_velocity", self.stribeck_velocity,
-                               {"unit": "m/s", "min": 0.0, "max": STRIBECK_MAX})
-        engine = choice.pop("engine")
-        # 0 encodes "not given" (mu_static = mu, no Stribeck decay); the combination checks
-        # (mu_static >= mu, the friction law, the engine) raise ValueError from the package
-        effects = effects_mod.Effects(
-            stiffness=effects_mod.StiffnessSpec(kind=choice.pop("stiffness")),
-            separation=bool(self.separation), v_eps=float(self.v_eps),
-            backlash=float(self.backlash) if self.backlash > 0.0 else None,
-            mu_static=float(self.mu_static) if self.mu_static > 0.0 else None,
-            stribeck_velocity=float(self.stribeck_velocity) if self.stribeck_velocity > 0.0
-            else None, **choice)
-        make = getattr(gp, "make_engine", None)
-        if make is not None:
-            if engine == "fast":
-                try:
-                    self._load_fast_engine()
-                    return make(params, effects, engine="fast", rtol=float(self.rtol))
-                except ImportError as exc:  # numba missing in this host's Python
-                    self.log(f"engine fast unavailable ({exc}): the reference engine "
-                             "(scipy) runs instead, much slower; install numba into the "
-                             f"environment of {sys.executable or 'this Python'}",
-                             Fmi2Status.warning)
-            return make(params, effects, engine="reference", rtol=float(self.rtol))
-        reference = importlib.import_module(gp.__name__ + ".reference")
-        return reference.ReferenceEngine(params, effects, rtol=float(self.rtol))
+        # the checks with the gear data (mu_static >= mu) raise ValueError from the package
+        return effects_mod.Effects(
+            stiffness=effects_mod.StiffnessSpec(kind=values.pop("stiffness")), **values)
 
     def _load_fast_engine(self) -> None:
         """Load the fast engine's compiled code (shipped in this FMU, from the user cache, or

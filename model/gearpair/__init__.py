@@ -15,7 +15,7 @@ __version__ = "0.1.0"
 
 
 # The engines by name, as data: name -> (module, class), imported on first use (the fast one
-# imports numba).
+# imports numba). Their order is the FMU's engine code: append, never reorder.
 ENGINES = {"fast": ("gearpair.fast", "FastEngine"),
            "reference": ("gearpair.reference", "ReferenceEngine")}
 

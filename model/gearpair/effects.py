@@ -8,8 +8,8 @@ stick bookkeeping at all.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass, field, fields
+from typing import Any, Literal
 
 FrictionLaw = Literal["off", "nominal", "regularized", "stick_slip"]
 StiffnessKind = Literal["potential_energy", "constant", "rectangular", "table"]
@@ -17,6 +17,8 @@ Sliding = Literal["paper", "full"]
 StickTie = Literal["exact", "paper"]
 Dof = Literal["full", "torsional"]
 
+# The choices of each option. The FMU's integer code of a choice is its index here (the
+# stiffness table, last, has none): append, never reorder.
 _FRICTION = ("off", "nominal", "regularized", "stick_slip")
 _STIFFNESS = ("potential_energy", "constant", "rectangular", "table")
 _SLIDING = ("paper", "full")
@@ -27,9 +29,72 @@ MU_STATIC_MAX = 1.0  # as GearParams.mu
 STRIBECK_MAX = 1.0  # m/s; sliding velocities of this gear stay below about 1 m/s at 600 r/min
 
 
+VARIANT = "variant"  # an option's ``off`` when no value leaves it out (e.g. the stiffness law)
+
+
 def _one_of(name: str, value: str, allowed: tuple[str, ...]) -> None:
     if value not in allowed:
         raise ValueError(f"{name} = {value!r} is not allowed; choose one of {', '.join(allowed)}")
+
+
+def _option(doc: str, *, fmu: str, fmu_doc: str, off: Any = VARIANT, choices=None,
+            fmu_choices=None, unit: str | None = None, lo: float | None = None,
+            hi: float | None = None, lo_open: bool = False, none: str | None = None,
+            zero_off: bool = False, display_unit: str | None = None):
+    """Metadata of an `Effects` field (``dataclasses.fields(Effects)[i].metadata``), the one
+    declaration that validation, the FMU's parameters, the scene keys, the command line and
+    the docs' tables are made from.
+
+    ``doc``: what it means (docs); ``off``: the value that leaves the effect out of the model
+    (`VARIANT`: none, every value is a variant of the model); ``choices`` (strings), a
+    boolean (no ``unit``) or a number with ``unit`` in [``lo``, ``hi``] (``lo_open``: lo
+    excluded); ``none``: what None means when it is allowed (e.g. "no back flank");
+    ``zero_off``: 0 means None too; ``fmu``: the FMU parameter's name, ``fmu_doc`` its
+    description, ``fmu_choices`` the choices it can code (default ``choices``; the code is
+    the index), ``display_unit`` its display unit. An FMU parameter has no None: 0 codes it
+    (and a value 0 means None: one representation, so equal effects compare equal).
+    """
+    kind = "choice" if choices else "bool" if unit is None else "number"
+    return {"kind": kind, "doc": doc, "off": off, "choices": choices, "unit": unit, "min": lo,
+            "max": hi, "lo_open": lo_open, "none": none, "zero_off": zero_off, "fmu": fmu,
+            "fmu_doc": fmu_doc, "fmu_choices": fmu_choices or choices,
+            "display_unit": display_unit}
+
+
+ON = object()  # in a `Rule`: any value but the field's ``off`` (the effect is on)
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A combination of options the model refuses: ``given`` (field, value or `ON`) all hold
+    and ``needs`` (field, allowed values) does not. Its message says it in any front
+    door's words (`message`)."""
+
+    given: tuple[tuple[str, Any], ...]
+    needs: tuple[str, tuple[Any, ...]]
+    why: str
+
+    def refuses(self, values) -> bool:
+        """Whether ``values`` (field -> value, Effects' values) break the rule."""
+        for name, want in self.given:
+            v = values[name]
+            if (v == OPTIONS[name]["off"]) if want is ON else (v != want):
+                return False
+        name, allowed = self.needs
+        return values[name] not in allowed
+
+    def message(self, values, say) -> str:
+        """The refusal: ``say(field, value)`` writes an assignment in the caller's words."""
+        name, allowed = self.needs
+        return (" with ".join(say(n, values[n]) for n, _ in self.given) + " needs "
+                + " or ".join(say(name, a) for a in allowed) + ": " + self.why)
+
+
+def say_effect(name: str, value: Any) -> str:
+    """An `Effects` assignment as Python and the scenes write it (``friction = 'off'``)."""
+    if isinstance(value, bool):
+        return f"{name} = {'true' if value else 'false'}"
+    return f"{name} = {value!r}"
 
 
 @dataclass(frozen=True)
@@ -120,64 +185,174 @@ class Effects:
         (the laws that see the sliding velocity).
     """
 
-    stiffness: StiffnessSpec = field(default_factory=StiffnessSpec)
-    separation: bool = True
-    friction: FrictionLaw = "stick_slip"
-    v_eps: float = 1e-4
-    sliding: Sliding = "paper"
-    stick_tie: StickTie = "exact"
-    backlash: float | None = None
-    dof: Dof = "full"
-    mu_static: float | None = None
-    stribeck_velocity: float | None = None
+    stiffness: StiffnessSpec = field(default_factory=StiffnessSpec, metadata=_option(
+        "mesh stiffness law per tooth pair", choices=_STIFFNESS,
+        fmu="stiffness_model", fmu_choices=_STIFFNESS[:3],
+        fmu_doc="mesh stiffness law per tooth pair"))
+    separation: bool = field(default=True, metadata=_option(
+        "tooth separation, Eq. (8): no mesh force or mesh damping while the teeth are apart "
+        "(`false`: the mesh spring also pulls)", off=False, fmu="separation",
+        fmu_doc="tooth separation, Eq. (8): mesh force and mesh damping vanish when the teeth "
+        "part (false: the mesh spring also pulls)"))
+    friction: FrictionLaw = field(default="stick_slip", metadata=_option(
+        "`nominal`: direction from the nominal kinematics, the traditional slip model; "
+        "`regularized`: tanh(v / v_eps); `stick_slip`: sign law with exact slip/stick "
+        "switching, Eq. (14)", choices=_FRICTION, off="off", fmu="friction_law",
+        fmu_doc="tooth friction law"))
+    v_eps: float = field(default=1e-4, metadata=_option(
+        "regularization velocity of `regularized`", unit="m/s", lo=1e-9, hi=1.0, fmu="v_eps",
+        fmu_doc="regularization velocity of friction_law = 2 (regularized), tanh(v/v_eps)"))
+    sliding: Sliding = field(default="paper", metadata=_option(
+        "sliding velocity: Eq. (12), or with the rotational vibration too", choices=_SLIDING,
+        off="paper", fmu="sliding",
+        fmu_doc="relative sliding velocity: Eq. (12) translations only (paper) or with the "
+        "rotational vibration (full)"))
+    stick_tie: StickTie = field(default="exact", metadata=_option(
+        "stuck surfaces hold v = 0 exactly, or Eqs. (19)-(21)", choices=_TIE, fmu="stick_tie",
+        fmu_doc="how stuck surfaces move together: v = 0 held exactly (exact) or "
+        "Eqs. (19)-(21) (paper)"))
+    backlash: float | None = field(default=None, metadata=_option(
+        "clearance along the line of action; back-flank contact beyond it", unit="m", lo=0.0,
+        hi=BACKLASH_MAX, lo_open=True, none="no back flank", off=None, fmu="backlash",
+        display_unit="um",
+        fmu_doc="clearance between drive and back flanks along the line of action; 0: no back "
+        "flank (the paper). > 0 catches torque reversal on the back flanks (needs "
+        "separation true)"))
+    dof: Dof = field(default="full", metadata=_option(
+        "`torsional`: rigid supports, only the two rotations", choices=_DOF, off="full",
+        fmu="dof", fmu_doc="degrees of freedom: the 6-DOF model (full) or u1, u2 only with "
+        "rigid supports (torsional; with friction_law 3 it needs sliding 1)"))
+    mu_static: float | None = field(default=None, metadata=_option(
+        "static friction coefficient, >= `mu`: bounds the static friction in the stick test "
+        "of Eq. (14); `[gear] mu` stays the kinetic one. Above `mu` it needs `friction = "
+        "\"stick_slip\"` (or `\"regularized\"` with `stribeck_velocity`; checked with the gear "
+        "data, `equations.check_friction_coefficients`)", unit="1",
+        lo=0.0, hi=MU_STATIC_MAX, none="mu_static = mu", off=None, fmu="mu_static",
+        fmu_doc="static friction coefficient bounding the static friction in the stick test "
+        "of Eq. (14) (mu stays the kinetic coefficient); 0: equal to mu (the paper); "
+        "otherwise it must be >= mu, with friction_law 3 (stick_slip), or 2 (regularized) "
+        "together with stribeck_velocity"))
+    stribeck_velocity: float | None = field(default=None, metadata=_option(
+        "Stribeck velocity v_s: sliding coefficient mu + (mu_static - mu) exp(-(v/v_s)²), "
+        "from `mu_static` at v = 0 down to `mu`", unit="m/s", lo=0.0, hi=STRIBECK_MAX,
+        lo_open=True, none="no Stribeck decay", zero_off=True, off=None,
+        fmu="stribeck_velocity",
+        fmu_doc="Stribeck velocity v_s: the sliding coefficient is mu + (mu_static - mu) "
+        "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3"))
 
     def __post_init__(self) -> None:
         if isinstance(self.stiffness, str):  # convenience: Effects(stiffness="constant")
             object.__setattr__(self, "stiffness", StiffnessSpec(kind=self.stiffness))
         if not isinstance(self.stiffness, StiffnessSpec):
             raise ValueError("stiffness must be a StiffnessSpec or one of " + ", ".join(_STIFFNESS))
-        _one_of("friction", self.friction, _FRICTION)
-        _one_of("sliding", self.sliding, _SLIDING)
-        _one_of("stick_tie", self.stick_tie, _TIE)
-        if not (isinstance(self.separation, bool)):
-            raise ValueError(f"separation must be true or false, got {self.separation!r}")
-        if not (math.isfinite(self.v_eps) and 1e-9 <= self.v_eps <= 1.0):
-            raise ValueError(f"v_eps = {self.v_eps!r} is out of range; allowed [1e-09, 1] m/s")
-        _one_of("dof", self.dof, _DOF)
-        if self.dof == "torsional" and self.friction == "stick_slip" and self.sliding == "paper":
-            raise ValueError("dof = 'torsional' with friction = 'stick_slip' needs sliding = "
-                             "'full': the paper's sliding velocity (Eq. 12) moves only with "
-                             "x1 - x2, which rigid supports hold still, so no stick can form")
-        if self.backlash is not None:
-            b = self.backlash
-            if isinstance(b, bool) or not isinstance(b, (int, float)) or not math.isfinite(b) \
-                    or not 0.0 < b <= BACKLASH_MAX:
-                raise ValueError(f"backlash = {b!r} is out of range; allowed (0, {BACKLASH_MAX:g}]"
-                                 " m, or None for no back flank")
-            if not self.separation:
-                raise ValueError("backlash needs separation = true (a back flank only matters "
-                                 "once the drive flanks can separate)")
-        self._check_static_friction()
-
-    def _check_static_friction(self) -> None:
-        ms = self.mu_static
-        if ms is not None and (isinstance(ms, bool) or not isinstance(ms, (int, float))
-                               or not math.isfinite(ms) or not 0.0 <= ms <= MU_STATIC_MAX):
-            raise ValueError(f"mu_static = {ms!r} is out of range; allowed [0, {MU_STATIC_MAX:g}]"
-                             " (and >= mu), or None for mu_static = mu")
-        vs = self.stribeck_velocity
-        if vs is None:
-            return
-        if isinstance(vs, bool) or not isinstance(vs, (int, float)) or not math.isfinite(vs) \
-                or not 0.0 <= vs <= STRIBECK_MAX:
-            raise ValueError(f"stribeck_velocity = {vs!r} is out of range; allowed (0, "
-                             f"{STRIBECK_MAX:g}] m/s, or 0 or None for no Stribeck decay")
-        if vs == 0.0:  # 0 means off, as None: one representation, so equal effects compare equal
+        for name, meta in OPTIONS.items():
+            if name != "stiffness":  # checked by StiffnessSpec
+                check_option(name, getattr(self, name), meta)
+        if self.stribeck_velocity == 0.0:  # 0 means off, as None: one representation
             object.__setattr__(self, "stribeck_velocity", None)
-            return
-        if self.friction not in ("stick_slip", "regularized"):
-            raise ValueError(f"stribeck_velocity needs friction = 'stick_slip' or 'regularized' "
-                             f"(friction = {self.friction!r} does not see the sliding velocity)")
+        values = self.values()
+        for rule in RULES:
+            if rule.refuses(values):
+                raise ValueError(rule.message(values, say_effect))
+
+    def values(self) -> dict[str, Any]:
+        """Field -> value, the stiffness as its kind (what `RULES` and the FMU read)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out["stiffness"] = self.stiffness.kind
+        return out
+
+
+def check_option(name: str, value: Any, meta: dict) -> None:
+    """Raise ``ValueError`` naming the option unless ``value`` is one its metadata allows."""
+    if meta["kind"] == "choice":
+        _one_of(name, value, meta["choices"])
+        return
+    if meta["kind"] == "bool":
+        if not isinstance(value, bool):
+            raise ValueError(f"{name} must be true or false, got {value!r}")
+        return
+    if value is None and meta["none"]:
+        return
+    lo, hi = meta["min"], meta["max"]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+            not math.isfinite(value) or not value <= hi or \
+            not (lo < value if meta["lo_open"] else lo <= value) and \
+            not (meta["zero_off"] and value == 0.0):
+        raise ValueError(f"{name} = {value!r} is out of range; allowed {allowed(meta)}")
+
+
+def allowed(meta: dict) -> str:
+    """The allowed values of an option's metadata as a message or a table says them."""
+    if meta["kind"] == "choice":
+        return ", ".join(meta["choices"])
+    if meta["kind"] == "bool":
+        return "true, false"
+    text = f"{'(' if meta['lo_open'] else '['}{meta['min']:g}, {meta['max']:g}]"
+    if meta["unit"] not in ("1", None):
+        text += f" {meta['unit']}"
+    if meta["none"]:
+        text += f", or {'0 or ' if meta['zero_off'] else ''}None for {meta['none']}"
+    return text
+
+
+OPTIONS: dict[str, dict] = {f.name: dict(f.metadata) for f in fields(Effects)}
+# The combinations the model refuses, checked by `Effects` and said in the FMU's words by the
+# FMU (fmu_src/GearPair.py) from the same rules.
+RULES = (
+    Rule((("dof", "torsional"), ("friction", "stick_slip")), ("sliding", ("full",)),
+         "the paper's sliding velocity (Eq. (12)) moves only with the support deflections, "
+         "which the torsional model holds still, so no stick could form"),
+    Rule((("backlash", ON),), ("separation", (True,)),
+         "a back flank only matters once the drive flanks can separate"),
+    Rule((("stribeck_velocity", ON),), ("friction", ("stick_slip", "regularized")),
+         "the other friction laws do not see the sliding velocity"),
+)
+
+
+def _word(value: Any) -> str:
+    """A value as TOML writes it, in backticks."""
+    if isinstance(value, bool):
+        return f"`{'true' if value else 'false'}`"
+    return f'`"{value}"`' if isinstance(value, str) else f"`{value:g}`"
+
+
+def markdown_table() -> str:
+    """The ``[effects]`` table of docs/scenes.md, made from `OPTIONS` and `RULES` (a test
+    holds the page to it; ``python -m gearpair.effects`` prints it)."""
+    defaults = Effects().values()
+    rows = ["| key | type | allowed | default | meaning |", "| --- | --- | --- | --- | --- |"]
+    for name, m in OPTIONS.items():
+        default = defaults[name]
+        if m["kind"] == "choice":
+            typ = "string"
+            allowed_ = ", ".join(_word(c) for c in m["fmu_choices"])
+            if m["fmu_choices"] != m["choices"]:
+                typ = "string or table"
+                allowed_ += "; " + ", ".join(_word(c) for c in m["choices"]
+                                             if c not in m["fmu_choices"]) + \
+                    " only as a table (below)"
+        elif m["kind"] == "bool":
+            typ, allowed_ = "boolean", "`true`, `false`"
+        else:
+            typ = "number" + ("" if m["unit"] == "1" else f", {m['unit']}")
+            allowed_ = f"{'(' if m['lo_open'] else '['}{m['min']:g}, {m['max']:g}]"
+            if m["zero_off"]:
+                allowed_ += ", or 0 for off"
+        shown = f"absent: {m['none']}" if default is None else _word(default)
+        meaning = m["doc"]
+        for rule in RULES:
+            if any(n == name for n, _ in rule.given):
+                field, ok = rule.needs
+                said = " with ".join(f"a `{n}`" if v is ON else f"`{n} = {_word(v)[1:-1]}`"
+                                     for n, v in rule.given)
+                meaning += f". {said[0].upper()}{said[1:]} needs " + \
+                    " or ".join(f"`{field} = {_word(v)[1:-1]}`" for v in ok)
+        rows.append(f"| `{name}` | {typ} | {allowed_} | {shown} | {meaning} |")
+    return "\n".join(rows) + "\n"
+
+
+if __name__ == "__main__":
+    print(markdown_table(), end="")
 
 
 FRICTION_LAWS = _FRICTION

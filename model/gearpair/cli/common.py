@@ -9,7 +9,7 @@ import math
 import sys
 from dataclasses import asdict, fields
 
-from ..effects import Effects
+from ..effects import OPTIONS, Effects, StiffnessSpec, allowed
 from ..modal import derive_params
 from ..params import GearParams
 
@@ -87,6 +87,57 @@ def add_gear_options(p: argparse.ArgumentParser) -> None:
                    help="derive kr2 so that the slip model's first natural frequency is HZ "
                    "(the paper tunes it to 32 Hz for Table 1's gears); default: keep kr2")
 
+
+
+def effect_flags() -> dict[str, object]:
+    """dest -> default of the effect options `add_effect_options` adds (Effects' defaults;
+    ``no_<name>`` for an effect that is on by default)."""
+    defaults = Effects().values()
+    return {(f"no_{n}" if m["kind"] == "bool" and defaults[n] else n):
+            (False if m["kind"] == "bool" and defaults[n] else defaults[n])
+            for n, m in OPTIONS.items()}
+
+
+def add_effect_options(g) -> None:
+    """One option per effect, made from its metadata (`gearpair.effects.OPTIONS`): its
+    choices (those one word selects: a stiffness table needs a scene file), a number in its
+    unit and range, or ``--no-NAME`` for an effect that is on by default; with its meaning and
+    default. Unset (None) unless given: `effects_from_args` fills the defaults."""
+    defaults = Effects().values()
+    for name, m in OPTIONS.items():
+        flag, default = "--" + name.replace("_", "-"), defaults[name]
+        if m["kind"] == "choice":
+            g.add_argument(flag, choices=m["fmu_choices"],
+                           help=f"{_plain(m['doc'])}; default {default}")
+        elif default is True:
+            g.add_argument(f"--no-{name.replace('_', '-')}", action="store_true", default=None,
+                           help=f"without it: {_plain(m['doc'])}; default: with it")
+        elif m["kind"] == "bool":
+            g.add_argument(flag, action="store_true", default=None,
+                           help=f"{_plain(m['doc'])}; default: without it")
+        else:
+            shown = f"none ({m['none']})" if default is None else f"{default:g}"
+            g.add_argument(flag, type=float,
+                           help=f"{_plain(m['doc'])}; allowed {allowed(m)}; default {shown}")
+
+
+def effects_from_args(args) -> Effects:
+    """The `Effects` of the effect options (`add_effect_options`); an option not given
+    (None) takes the field's default."""
+    kw, defaults = {}, Effects().values()
+    for name, m in OPTIONS.items():
+        if m["kind"] == "bool" and defaults[name]:
+            kw[name] = not getattr(args, f"no_{name}")
+        else:
+            given = getattr(args, name)
+            kw[name] = defaults[name] if given is None else given
+    kw["stiffness"] = StiffnessSpec(kind=kw["stiffness"])
+    return Effects(**kw)
+
+
+def _plain(doc: str) -> str:
+    """A docs text as --help prints it (no Markdown backticks; argparse formats %)."""
+    return doc.replace("`", "").replace("%", "%%")
 
 
 def check_figure_format(flag: str, path: str) -> None:

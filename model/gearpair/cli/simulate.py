@@ -11,16 +11,17 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..effects import (
-    FRICTION_LAWS,
-    SLIDING_VARIANTS,
-    STICK_TIES,
-    STIFFNESS_KINDS,
-    Effects,
-    StiffnessSpec,
-)
 from ..params import RPM, RTOL_MAX, RTOL_MIN, GearParams, OperatingPoint
-from .common import add_gear_options, changed, check_figure_format, gear_from_args, parse_set
+from .common import (
+    add_effect_options,
+    add_gear_options,
+    changed,
+    check_figure_format,
+    effect_flags,
+    effects_from_args,
+    gear_from_args,
+    parse_set,
+)
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -61,34 +62,15 @@ def add_parser(sub) -> argparse.ArgumentParser:
                      f"{d['mu']:g}")
     run.add_argument("--rtol", type=float, help="relative tolerance of the integrator, "
                      f"[{RTOL_MIN:g}, {RTOL_MAX:g}]; default {d['rtol']:g}")
-    run.add_argument("--stiffness", choices=[k for k in STIFFNESS_KINDS if k != "table"],
-                     help=f"mesh stiffness law; default {d['stiffness']} (a table needs a "
-                     "scene file)")
-    run.add_argument("--friction", choices=FRICTION_LAWS, help="friction law: off, nominal "
-                     "(the slip model), regularized or stick_slip (the paper's); default "
-                     f"{d['friction']}")
-    run.add_argument("--sliding", choices=SLIDING_VARIANTS, help="sliding velocity: paper "
-                     f"(Eq. 12) or full; default {d['sliding']}")
-    run.add_argument("--stick-tie", choices=STICK_TIES, help="how stuck teeth move together: "
-                     f"exact (v = 0) or paper (Eq. 19); default {d['stick_tie']}")
-    run.add_argument("--no-separation", action="store_true", default=None,
-                     help="teeth never separate (a linear mesh spring); default: they do")
+    add_effect_options(run)
     add_gear_options(s)
     return s
-
-
-def _effects(args) -> Effects:
-    return Effects(
-        stiffness=StiffnessSpec(kind=args.stiffness), separation=not args.no_separation,
-        friction=args.friction, sliding=args.sliding, stick_tie=args.stick_tie,
-    )
 
 
 # Flags that describe the run itself: without a scene file only (a scene says all of it).
 _RUN_FLAGS = {"dt": 1e-4, "steady_from": 0.5, "torque": OperatingPoint().torque,
               "speed_rpm": OperatingPoint().speed / RPM, "mu": GearParams().mu, "rtol": 1e-7,
-              "stiffness": "potential_energy", "friction": "stick_slip", "sliding": "paper",
-              "stick_tie": "exact", "no_separation": False}
+              **effect_flags()}
 
 
 def _scene_from_flags(args):
@@ -106,7 +88,7 @@ def _scene_from_flags(args):
     if not (t_end > 0 and args.dt > 0):
         raise ValueError(f"--t-end = {t_end!r} and --dt = {args.dt!r} must be > 0 s")
     op = OperatingPoint(torque=args.torque, speed=args.speed_rpm * RPM)
-    effects = _effects(args)
+    effects = effects_from_args(args)
     scene = Scene(
         name="command line", params=gear_from_args(args, GearParams(mu=args.mu), effects),
         effects=effects,

@@ -30,6 +30,14 @@ N_MP = 43  # P_MUS: static coefficient mu_static; P_VS: Stribeck velocity (0: no
 (I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB, I_BACK,
  I_TORS, I_LTI, I_METHOD, I_NIX) = range(15)
 I_IX = 15  # flag[I_IX:I_IX + flag[I_NIX]]: the components of y the Runge-Kutta steps integrate
+# The names each effect (`gearpair.effects.Effects` field) fills in the records
+# (`engine.model_constants`, `engine.model_flags`): the compiled code reads the effect
+# through these and nothing else (docs/architecture.md "What an effect touches" is checked
+# against the modules that read them)
+EFFECT_RECORDS = {"stiffness": ("I_KIND", "I_VARY"), "separation": ("I_SEP",),
+                  "friction": ("I_FRIC",), "v_eps": ("P_VEPS",), "sliding": ("I_SLIDE",),
+                  "stick_tie": ("I_TIE",), "backlash": ("P_BACK", "I_BACK"),
+                  "dof": ("I_TORS",), "mu_static": ("P_MUS",), "stribeck_velocity": ("P_VS",)}
 KIND_CONSTANT, KIND_TABLE, KIND_CUBIC = 0, 1, 2  # KIND_CUBIC: k_coef holds 4 spline
 #                                                  coefficients per interval
 FR_OFF, FR_NOMINAL, FR_REG, FR_STICK = 0, 1, 2, 3

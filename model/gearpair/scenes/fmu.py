@@ -4,7 +4,6 @@ through fmpy as an FMI 2.0 co-simulation master drives it."""
 from __future__ import annotations
 
 import math
-import re
 import time as _time
 from dataclasses import fields
 from pathlib import Path
@@ -12,6 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import ENGINES
+from ..effects import OPTIONS, Effects
 from ..params import GearParams
 from ..results import Trajectory
 from .driver import FmuDriver
@@ -22,15 +23,11 @@ if TYPE_CHECKING:
     from .types import Scene
 
 
-def _codes(description: str) -> dict[str, int]:
-    """Integer codes of an FMU choice parameter from its description ("...: 0 off, 1 nominal")."""
-    tail = description.rsplit(":", 1)[-1]
-    return {name: int(i) for i, name in re.findall(r"(\d+) ([A-Za-z_]+)", tail)}
-
-
 def fmu_start_values(scene: Scene, variables: dict[str, Any]) -> dict[str, Any]:
     """Start values that set the FMU up as the scene (``variables``: name -> fmpy variable).
 
+    The effects' parameters, codes and the "not given" 0 come from their metadata
+    (`gearpair.effects.OPTIONS`), the one declaration the FMU's parameters are made from.
     Raises `SceneError` when the scene calls for something the FMU cannot express.
     """
     fx = scene.effects
@@ -39,42 +36,28 @@ def fmu_start_values(scene: Scene, variables: dict[str, Any]) -> dict[str, Any]:
         return SceneError(f"the FMU cannot express {what}; run this scene with --engine fast "
                           "or reference")
 
-    def code(param: str, value: str, what: str) -> int:
-        v = variables.get(param)
-        codes = _codes(v.description or "") if v is not None else {}
-        if value not in codes:
-            raise refuse(f"{what} = {value!r} (no such choice of its parameter {param!r})")
-        return codes[value]
-
     if not scene.solver.static_start:
         raise refuse("[solver] static_start = false (it always starts from static equilibrium)")
     start: dict[str, Any] = {f.name: getattr(scene.params, f.name) for f in fields(GearParams)}
     if fx.stiffness.kind == "table":
         raise refuse("[effects.stiffness] kind = \"table\"")
-    start["stiffness_model"] = code("stiffness_model", fx.stiffness.kind, "[effects] stiffness")
-    start["friction_law"] = code("friction_law", fx.friction, "[effects] friction")
-    start["sliding"] = code("sliding", fx.sliding, "[effects] sliding")
-    start["stick_tie"] = code("stick_tie", fx.stick_tie, "[effects] stick_tie")
-    start["separation"] = bool(fx.separation)
-    start["v_eps"] = float(fx.v_eps)
+    defaults = Effects().values()
+    for name, value in fx.values().items():
+        m = OPTIONS[name]
+        param = m["fmu"]
+        if value is None:
+            continue  # not given: the FMU's start value 0 codes None
+        if param not in variables:
+            if value == defaults[name]:
+                continue  # an FMU from before this parameter runs it this way
+            raise refuse(f"[effects] {name} = {value!r} (no parameter {param!r})")
+        if m["kind"] == "choice":
+            start[param] = m["fmu_choices"].index(value)
+        else:
+            start[param] = bool(value) if m["kind"] == "bool" else float(value)
     start["rtol"] = float(scene.solver.rtol)
     if "engine" in variables:
-        start["engine"] = code("engine", "fast", "the engine")
-    if fx.backlash is not None:
-        if "backlash" not in variables:
-            raise refuse("[effects] backlash (no parameter 'backlash')")
-        start["backlash"] = float(fx.backlash)
-    # 0 is the FMU's "not given" (mu_static = mu, no Stribeck decay)
-    for name in ("mu_static", "stribeck_velocity"):
-        value = getattr(fx, name)
-        if value is not None:
-            if name not in variables:
-                raise refuse(f"[effects] {name} (no parameter {name!r})")
-            start[name] = float(value)
-    if fx.dof != "full" or "dof" in variables:
-        if "dof" not in variables:
-            raise refuse(f"[effects] dof = {fx.dof!r} (no parameter 'dof')")
-        start["dof"] = code("dof", fx.dof, "[effects] dof")
+        start["engine"] = tuple(ENGINES).index("fast")
     missing = sorted(k for k in start if k not in variables)
     if missing:
         raise refuse(f"the parameter(s) {', '.join(missing)} (not in this FMU)")

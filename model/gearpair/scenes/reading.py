@@ -14,7 +14,7 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from ..effects import Effects, StiffnessSpec
+from ..effects import OPTIONS, Effects, StiffnessSpec
 from ..equations import check_friction_coefficients
 from ..geometry import BORE_RATIO_MAX
 from ..inputs import Constant, Ramp, Schedule, Series, Step
@@ -206,8 +206,7 @@ def _gear(d: dict) -> tuple[GearParams, dict[str, Any]]:
         raise SceneError(f"[{where}] {exc}") from None
 
 
-_EFFECT_KEYS = ("stiffness", "separation", "friction", "v_eps", "sliding", "stick_tie",
-                "backlash", "dof", "mu_static", "stribeck_velocity")
+_EFFECT_KEYS = tuple(OPTIONS)  # every Effects field is a key (`gearpair.effects.OPTIONS`)
 
 
 def _stiffness(d: Any, base: Path, params: GearParams) -> StiffnessSpec:
@@ -252,12 +251,9 @@ def _effects(d: dict, base: Path, params: GearParams) -> Effects:
     for key, v in d.items():
         if key == "stiffness":
             kw[key] = _stiffness(v, base, params)
-        elif key == "separation":
-            kw[key] = _bool(where, key, v)
-        elif key in ("v_eps", "backlash", "mu_static", "stribeck_velocity"):
-            kw[key] = _num(where, key, v)
         else:
-            kw[key] = _str(where, key, v)
+            read = {"bool": _bool, "number": _num, "choice": _str}[OPTIONS[key]["kind"]]
+            kw[key] = read(where, key, v)
     try:
         fx = Effects(**kw)
         check_friction_coefficients(params, fx)  # mu_static against the gear's mu, at load

@@ -8,6 +8,7 @@ TOML; `simulate` takes them, or any plain callable, or a number (a `Constant`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -102,4 +103,25 @@ class Series:
         return np.interp(np.asarray(t, dtype=float), self._t, self._v)
 
 
-Schedule = Constant | Ramp | Step | Series
+@dataclass(frozen=True)
+class Function:
+    """A plain function of time ``fn(t)`` as a schedule: `sample` calls it at each time."""
+
+    fn: Callable[[float], float]
+
+    def __call__(self, t: float) -> float:
+        return self.fn(t)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Values at the times ``t``, one call of ``fn`` each."""
+        return np.fromiter((self.fn(x) for x in t), float, len(t))
+
+
+Schedule = Constant | Ramp | Step | Series | Function
+
+
+def as_schedule(x: float | Callable[[float], float]) -> Schedule:
+    """A schedule as is, a number as a `Constant`, any other callable as a `Function`."""
+    if isinstance(x, (Constant, Ramp, Step, Series, Function)):
+        return x
+    return Function(x) if callable(x) else Constant(float(x))

@@ -20,7 +20,7 @@ import numpy as np
 from .effects import Effects
 from .engine import CONTACT_BACK, OUTPUT_NAMES, Engine
 from .engine import UNITS as ENGINE_UNITS
-from .inputs import Constant
+from .inputs import Function, as_schedule
 from .params import RPM, GearParams, OperatingPoint
 
 Input = float | Callable[[float], float]
@@ -224,12 +224,6 @@ class Trajectory:
         fig.savefig(Path(path), dpi=120)
 
 
-def _as_fn(x: Input) -> Callable[[float], float]:
-    if callable(x):
-        return x
-    return Constant(float(x))
-
-
 def _ratio(eng: Engine, params: GearParams | None) -> float:
     """z1/z2 of the engine's gears: the load shaft's far end turns at ``z1/z2 speed`` (the
     nominal rotation of gear 2) in every run of `simulate`, which drives no load shaft."""
@@ -245,12 +239,12 @@ def _check_load(eng: Engine, params: GearParams | None, fT, grid: np.ndarray) ->
 
     model = getattr(eng, "model", None)
     p = model.p if model is not None else (params or GearParams())
-    if hasattr(fT, "sample"):
-        torques = fT.sample(grid)
-    else:
+    if isinstance(fT, Function):
         pick = grid if len(grid) <= 1001 else grid[np.linspace(0, len(grid) - 1, 1001,
                                                                dtype=np.int64)]
-        torques = np.fromiter((fT(t) for t in pick), float, len(pick))
+        torques = fT.sample(pick)
+    else:
+        torques = fT.sample(grid)
     # the caller of `simulate` (or of `Scene.run`) is where the torque came from
     warn_implausible_load(p, float(np.max(np.abs(torques))), stacklevel=3)
 
@@ -276,8 +270,8 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
     from . import make_engine
 
     op = OperatingPoint()
-    fT = _as_fn(op.torque if torque is None else torque)
-    fW = _as_fn(op.speed if speed is None else speed)
+    fT = as_schedule(op.torque if torque is None else torque)
+    fW = as_schedule(op.speed if speed is None else speed)
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt = {dt!r} must be a positive number of seconds")
     if not (t_end > t0):
@@ -293,8 +287,7 @@ def simulate(params: GearParams | None = None, effects: Effects | None = None,
     startup = _time.perf_counter() - wall0
     wall0 = _time.perf_counter()
     eng.reset(grid[0], fT(grid[0]), fW(grid[0]), static=static)
-    T, W = (f.sample(grid[:-1]) if hasattr(f, "sample") else
-            np.fromiter((f(t) for t in grid[:-1]), float, n) for f in (fT, fW))
+    T, W = fT.sample(grid[:-1]), fW.sample(grid[:-1])
     data = {"time": grid, **eng.run(grid, T, W)}
     data["torque"] = np.r_[fT(grid[0]), T]
     data["speed"] = np.r_[fW(grid[0]), W]

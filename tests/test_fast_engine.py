@@ -287,3 +287,12 @@ def test_snapshot_restore_returns_to_the_same_trajectory(compiled):
     assert again == first and first.stick_fraction > 0.0  # a stick inside the step
     assert e._hs.y.tolist() == y1.tolist() and e._hs.mode.tolist() == ist1.tolist()
     assert e._hs.stuck.tolist() == stuck1.tolist()
+
+
+def test_the_step_block_names_the_engine_records():
+    """The step block (a standalone file: the bench's no-op FMU bundles it alone) lists the
+    step record the engine declares: `Outputs` after time, `StepSummary` after the times."""
+    from gearpair.engine import OUTPUT_NAMES, StepSummary
+    from gearpair.stepblock import STEP_RECORD
+
+    assert STEP_RECORD == OUTPUT_NAMES[1:] + StepSummary._fields[2:]

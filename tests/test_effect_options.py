@@ -34,7 +34,7 @@ def _slave():
 
 def test_docs_table_is_made_from_the_declaration():
     assert markdown_table() in (ROOT / "docs" / "scenes.md").read_text(), \
-        "docs/scenes.md [effects] table: paste `python -m gearpair.effects`"
+        "docs/scenes.md [effects] table: paste gearpair.effects.markdown_table()"
 
 
 def test_every_effect_has_its_fmu_parameter_scene_key_and_flag():

@@ -318,7 +318,7 @@ def _word(value: Any) -> str:
 
 def markdown_table() -> str:
     """The ``[effects]`` table of docs/scenes.md, made from `OPTIONS` and `RULES` (a test
-    holds the page to it; ``python -m gearpair.effects`` prints it)."""
+    holds the page to it)."""
     defaults = Effects().values()
     rows = ["| key | type | allowed | default | meaning |", "| --- | --- | --- | --- | --- |"]
     for name, m in OPTIONS.items():
@@ -349,10 +349,6 @@ def markdown_table() -> str:
                     " or ".join(f"`{field} = {_word(v)[1:-1]}`" for v in ok)
         rows.append(f"| `{name}` | {typ} | {allowed_} | {shown} | {meaning} |")
     return "\n".join(rows) + "\n"
-
-
-if __name__ == "__main__":
-    print(markdown_table(), end="")
 
 
 FRICTION_LAWS = _FRICTION

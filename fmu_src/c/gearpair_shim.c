@@ -23,7 +23,14 @@
  * - the embedded interpreter's lifetime (see `ensure_python`): exit and dlclose are safe;
  * - the native step (see `Native`): after initialization and a first step the per-step
  *   calls (fmi2SetReal of inputs, fmi2DoStep, fmi2Get* of inputs and outputs) run the
- *   slave's compiled engine here, without Python, from any thread.
+ *   slave's compiled engine here, without Python, from any thread;
+ * - which Python: in a host without one, the interpreter recorded in resources/python.txt
+ *   or named by GEARPAIR_PYTHON is loaded (`ensure_python`), and the packages the slave
+ *   needs are checked before pythonfmu imports it (`check_python`): one message, no
+ *   traceback; the resource location is read in every local file: form (`resource_folder`);
+ * - a value refused before initialization ended is remembered until a valid one is set:
+ *   fmi2ExitInitializationMode refuses naming it (`refuse`, `taken`);
+ * - calls after the host's interpreter finalized are answered here (`py_gone`).
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>

@@ -1,9 +1,11 @@
 """The package's shape: no import circle between its modules, every command-line module imports
-on its own, and the command line's parser loads no subcommand's machinery."""
+on its own, the command line's parser loads no subcommand's machinery, and docs/architecture.md
+is the module map of every module."""
 
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -107,3 +109,33 @@ def test_building_the_parser_loads_no_benchmark_or_engine():
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
                          text=True, timeout=120).stdout
     assert out.strip() == "[]"
+
+
+def _module_map() -> set[str]:
+    """The modules docs/architecture.md's layout block names, as paths in the package
+    (``fast/loop.py``); a folder line (``cli/``) opens a sub-package for the lines under it."""
+    doc = (PACKAGE.parents[1] / "docs" / "architecture.md").read_text()
+    block = re.search(r"```\ngearpair/\n(.*?)```", doc, re.S).group(1)
+    named, folder = set(), ""
+    for line in block.splitlines():
+        indent = len(line) - len(line.lstrip(" "))
+        if indent not in (2, 4) or not line.strip():  # description lines, fmu_src/
+            continue
+        head = re.split(r"\s{2,}", line.strip())[0]
+        for name in (p.strip() for p in head.split(",") if p.strip()):
+            if name.endswith("/"):
+                folder = name
+                named.add(name + "__init__.py")
+            else:
+                named.add((folder if indent == 4 else "") + name)
+    return named
+
+
+def test_the_module_map_names_every_module_and_no_other():
+    """docs/architecture.md is the one module map: every module of the package is in it
+    (a sub-package's ``__init__`` by its folder line), and it names no module that is gone."""
+    actual = {p.relative_to(PACKAGE).as_posix() for p in PACKAGE.rglob("*.py")
+              if "__pycache__" not in p.parts}
+    named = _module_map()
+    assert sorted(actual - named - {"__init__.py"}) == []
+    assert sorted(named - actual) == []

@@ -33,6 +33,7 @@ POINTS = [
     ("stick-slip rtol 1e-6 advance 1e-3", {}, 1e-6, "advance", 1e-3, 0.5),
     ("exact propagator advance 1e-4", {"friction": "off", "stiffness": "constant"}, 1e-8,
      "advance", 1e-4, 0.5),
+    ("stick-slip rtol 1e-8 checked advance 1e-4", {}, 1e-8, "checked", 1e-4, 0.2),
 ]
 TORQUE, SPEED = 3900.0, 100.0 * 2.0 * math.pi / 60.0  # N.m, rad/s (Table 1, 100 r/min)
 
@@ -50,9 +51,12 @@ def _time_point(eng, path: str, dt: float, span: float) -> float:
         # `run` is the contract's name; a checkout from before it has `run_grid`
         run = eng.run if "run" in type(eng).__dict__ else eng.run_grid
         run(t0 + dt * np.arange(n + 1), TORQUE, SPEED)
-    else:
+    elif path == "advance":  # without the input check (what a caller that checked calls)
         for k in range(1, n + 1):
             eng.advance_values(t0 + k * dt, TORQUE, SPEED)
+    else:  # `advance`: the input check and the step record, what Python callers get
+        for k in range(1, n + 1):
+            eng.advance(t0 + k * dt, TORQUE, SPEED)
     return (time.process_time() - c0) / n * 1e6
 
 

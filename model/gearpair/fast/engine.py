@@ -482,10 +482,10 @@ class FastEngine(Engine):
         if step(table) != STEP_DONE:
             self._raise_failure()
         self._o_fresh = True  # the step left the outputs in wk.outputs
-        r = x[X_REC + N_O:].tolist()
+        stick, sep, fmax, nev, nst, back, fmean, fmin = x[X_REC + N_O:].tolist()
         # tuple.__new__: the record without the keyword handling of its constructor
-        return _new(StepSummary, (t_start, float(t_end), r[0], r[1], r[2], int(r[3]),
-                                  int(r[4]), r[5], r[6], r[7]))
+        return _new(StepSummary, (t_start, float(t_end), stick, sep, fmax, int(nev), int(nst),
+                                  back, fmean, fmin))
 
     def _raise_failure(self) -> None:
         out = self._wk.summary

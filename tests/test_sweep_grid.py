@@ -301,7 +301,9 @@ def test_client_killed_at_random_moments_leaves_a_readable_store(tmp_path):
                 "--out", str(tmp_path / "k"), "--store", str(store), "--quiet", "--no-plot",
                 *QUICK_ARGS]
 
-    for kill in range(10):
+    for kill in range(30):  # 10 kills, and more until 3 of them landed inside a sweep
+        if kill >= 10 and mid_sweep >= 3:
+            break
         store = stores[-1]
         p = subprocess.Popen(cmd(store), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         if kill % 4 == 0:  # anywhere: start-up, store creation or the points

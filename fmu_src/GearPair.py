@@ -454,9 +454,7 @@ class GearPair(Fmi2Slave):
         slave's step block. Raises ValueError with a message naming the offending
         parameter."""
         engine = self._new_engine()
-        bind = getattr(engine, "bind_block", None)
-        if bind is not None:
-            bind(self._x)
+        engine.bind_block(self._x)
         return engine
 
     def _new_engine(self):
@@ -674,7 +672,7 @@ class GearPair(Fmi2Slave):
         after which the caller restores the state of the step start."""
         x, sb = self._x, self._sb
         x[sb.X_LOADON] = 1.0 if self.load_speed_input else 0.0
-        native = getattr(eng, "native_step", None)
+        native = eng.native_step
         if native is not None:  # the compiled step, as the C layer calls it
             x[sb.X_TCHK], x[sb.X_H], x[sb.X_TEND], x[sb.X_FMU] = t, h, t + h, 1.0
             step, _, table = native()
@@ -707,7 +705,7 @@ class GearPair(Fmi2Slave):
             return 0, 0, 0
         block = int(self._x.ctypes.data)
         eng = self._engine
-        native = getattr(eng, "native_step", None)
+        native = eng.native_step
         if native is None or not self._stepped or self._poisoned or self._params_set or \
                 eng.block is not self._x:
             return block, 0, 0

@@ -135,6 +135,16 @@ class Engine(ABC):
     compiled call).
     """
 
+    #: The compiled step the FMU's C layer calls without Python, for an engine that has one
+    #: (`FastEngine.native_step`: a method returning the callable and its addresses);
+    #: ``None`` for an engine that steps in Python only.
+    native_step = None
+
+    def bind_block(self, block) -> None:
+        """Step with the caller's step block (the FMU slave's); an engine without a
+        compiled step has no block and ignores it."""
+        return None
+
     @abstractmethod
     def reset(self, t0: float = 0.0, torque: float = 0.0, speed: float = 0.0,
               static: bool = True) -> None:

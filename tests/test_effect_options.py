@@ -1,5 +1,5 @@
 """Effects declared once: the front doors (scene keys, command line, FMU parameters and their
-checks, docs table) follow `gearpair.effects.OPTIONS` and `RULES`, and the modules that read
+checks) follow `gearpair.effects.OPTIONS` and `RULES`, and the modules that read
 an effect are the ones docs/architecture.md lists."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import pytest
 
 import gearpair
-from gearpair.effects import OPTIONS, RULES, Effects, markdown_table
+from gearpair.effects import OPTIONS, RULES, Effects
 from gearpair.fast.layout import EFFECT_RECORDS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,11 +30,6 @@ def _slave():
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
-
-
-def test_docs_table_is_made_from_the_declaration():
-    assert markdown_table() in (ROOT / "docs" / "scenes.md").read_text(), \
-        "docs/scenes.md [effects] table: paste gearpair.effects.markdown_table()"
 
 
 def test_every_effect_has_its_fmu_parameter_scene_key_and_flag():

@@ -309,48 +309,6 @@ RULES = (
 )
 
 
-def _word(value: Any) -> str:
-    """A value as TOML writes it, in backticks."""
-    if isinstance(value, bool):
-        return f"`{'true' if value else 'false'}`"
-    return f'`"{value}"`' if isinstance(value, str) else f"`{value:g}`"
-
-
-def markdown_table() -> str:
-    """The ``[effects]`` table of docs/scenes.md, made from `OPTIONS` and `RULES` (a test
-    holds the page to it)."""
-    defaults = Effects().values()
-    rows = ["| key | type | allowed | default | meaning |", "| --- | --- | --- | --- | --- |"]
-    for name, m in OPTIONS.items():
-        default = defaults[name]
-        if m["kind"] == "choice":
-            typ = "string"
-            allowed_ = ", ".join(_word(c) for c in m["fmu_choices"])
-            if m["fmu_choices"] != m["choices"]:
-                typ = "string or table"
-                allowed_ += "; " + ", ".join(_word(c) for c in m["choices"]
-                                             if c not in m["fmu_choices"]) + \
-                    " only as a table (below)"
-        elif m["kind"] == "bool":
-            typ, allowed_ = "boolean", "`true`, `false`"
-        else:
-            typ = "number" + ("" if m["unit"] == "1" else f", {m['unit']}")
-            allowed_ = f"{'(' if m['lo_open'] else '['}{m['min']:g}, {m['max']:g}]"
-            if m["zero_off"]:
-                allowed_ += ", or 0 for off"
-        shown = f"absent: {m['none']}" if default is None else _word(default)
-        meaning = m["doc"]
-        for rule in RULES:
-            if any(n == name for n, _ in rule.given):
-                field, ok = rule.needs
-                said = " with ".join(f"a `{n}`" if v is ON else f"`{n} = {_word(v)[1:-1]}`"
-                                     for n, v in rule.given)
-                meaning += f". {said[0].upper()}{said[1:]} needs " + \
-                    " or ".join(f"`{field} = {_word(v)[1:-1]}`" for v in ok)
-        rows.append(f"| `{name}` | {typ} | {allowed_} | {shown} | {meaning} |")
-    return "\n".join(rows) + "\n"
-
-
 FRICTION_LAWS = _FRICTION
 STIFFNESS_KINDS = _STIFFNESS
 SLIDING_VARIANTS = _SLIDING

@@ -8,8 +8,8 @@ v_s = 0.01 m/s, so the sliding coefficient falls continuously from 2 mu at v = 0
 project does not reproduce with one coefficient: contact loss, period two, half-order DTE
 components, larger mesh force swings.
 
-Each case runs the reference engine (the fast engine does not carry the effect yet) from
-static equilibrium: ``--transient`` mesh periods stepped 8 times per period, then ``--kept``
+Each case runs the reference engine (scipy, the yardstick; both engines carry the effect)
+from static equilibrium: ``--transient`` mesh periods stepped 8 times per period, then ``--kept``
 periods sampled ``--samples`` times per period (step ends off the instants where a pair
 enters or leaves contact or crosses the pitch point, `gearpair.analysis.section_offset`).
 Over the kept periods it reports the stick ratio and the contact-loss ratio (Eqs. (26)-(27),

@@ -7,13 +7,14 @@ from __future__ import annotations
 import ast
 import importlib.util
 import re
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 
 import gearpair
-from gearpair.effects import OPTIONS, RULES, Effects
+from gearpair.effects import OPTIONS, RULES, Effects, StiffnessSpec
 from gearpair.fast.layout import EFFECT_RECORDS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,11 +55,37 @@ def test_every_effect_has_its_fmu_parameter_scene_key_and_flag():
         assert name in flags or f"no_{name}" in flags, name
 
 
-def _simulate_actions():
+# the subcommands that run the model: each has an option per effect
+MODEL_COMMANDS = ("simulate", "sweep", "modes")
+
+
+def _subcommands():
     from gearpair.cli import build_parser
 
-    sub = next(a for a in build_parser()._actions if a.dest == "cmd")
-    return sub.choices["simulate"]._actions
+    return next(a for a in build_parser()._actions if a.dest == "cmd").choices
+
+
+def _simulate_actions():
+    return _subcommands()["simulate"]._actions
+
+
+@pytest.mark.parametrize("cmd", MODEL_COMMANDS)
+def test_every_command_that_runs_the_model_has_an_option_per_effect(cmd):
+    """A new `Effects` field is a new option of each of these commands, made from its
+    metadata (`add_effect_options`: the same name, choices, type and meaning everywhere)."""
+    from gearpair.cli.common import effect_flags
+
+    acts = {a.dest: a for a in _subcommands()[cmd]._actions}
+    ref = {a.dest: a for a in _simulate_actions()}
+    assert {d.removeprefix("no_") for d in effect_flags()} == set(OPTIONS)
+    for dest in effect_flags():
+        name = dest.removeprefix("no_")
+        assert dest in acts, f"gearpair {cmd} has no option for the effect {name}"
+        a, r = acts[dest], ref[dest]
+        assert (a.option_strings, a.choices, a.type, a.default) == \
+            (r.option_strings, r.choices, r.type, r.default), (cmd, dest)
+        meaning = OPTIONS[name]["doc"].replace("`", "")
+        assert meaning in a.help.replace("%%", "%"), (cmd, dest)
 
 
 @pytest.mark.parametrize("name", list(OPTIONS))
@@ -97,6 +124,13 @@ def test_a_value_goes_through_scene_flag_and_fmu_unchanged(name, tmp_path):
         else:
             argv += [f"--{k.replace('_', '-')}", str(v)]
     assert effects_from_args(build_parser().parse_args(argv)) == want
+    # the same options of sweep (every point's effects) and modes (the mean stiffness)
+    from gearpair.cli import modes, sweep
+
+    args = build_parser().parse_args(["sweep", "mu", "0.02", *argv[1:]])
+    assert sweep.settings_from_args(args).effects() == want
+    args = build_parser().parse_args(["modes", *argv[1:]])
+    assert modes.model_of(args)[1] == replace(want, stiffness=StiffnessSpec("constant"))
 
     slave = _slave()
     spec = slave.interface(gearpair)

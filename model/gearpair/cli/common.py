@@ -98,27 +98,36 @@ def effect_flags() -> dict[str, object]:
             for n, m in OPTIONS.items()}
 
 
-def add_effect_options(g) -> None:
-    """One option per effect, made from its metadata (`gearpair.effects.OPTIONS`): its
-    choices (those one word selects: a stiffness table needs a scene file), a number in its
-    unit and range, or ``--no-NAME`` for an effect that is on by default; with its meaning and
-    default. Unset (None) unless given: `effects_from_args` fills the defaults."""
-    defaults = Effects().values()
+def add_effect_options(g, notes: dict[str, str] | None = None) -> None:
+    """One option per `Effects` field, made from its metadata (`gearpair.effects.OPTIONS`):
+    its choices (those one word selects: a stiffness table needs a scene file), a number in
+    its unit and range, or ``--no-NAME`` for an effect that is on by default; with its
+    meaning and default. Every subcommand that runs the model adds them here, so a new field
+    is a new option of each. ``notes``: field -> a subcommand's own words, put before the
+    default (e.g. what the field means for ``modes``). Unset (None) unless given:
+    `effects_from_args` fills the defaults."""
+    defaults, notes = Effects().values(), notes or {}
     for name, m in OPTIONS.items():
         flag, default = "--" + name.replace("_", "-"), defaults[name]
+        doc = _plain(m["doc"]) + (f" ({_plain(notes[name])})" if name in notes else "")
         if m["kind"] == "choice":
-            g.add_argument(flag, choices=m["fmu_choices"],
-                           help=f"{_plain(m['doc'])}; default {default}")
+            g.add_argument(flag, choices=m["fmu_choices"], help=f"{doc}; default {default}")
         elif default is True:
             g.add_argument(f"--no-{name.replace('_', '-')}", action="store_true", default=None,
-                           help=f"without it: {_plain(m['doc'])}; default: with it")
+                           help=f"without it: {doc}; default: with it")
         elif m["kind"] == "bool":
             g.add_argument(flag, action="store_true", default=None,
-                           help=f"{_plain(m['doc'])}; default: without it")
+                           help=f"{doc}; default: without it")
         else:
             shown = f"none ({m['none']})" if default is None else f"{default:g}"
             g.add_argument(flag, type=float,
-                           help=f"{_plain(m['doc'])}; allowed {allowed(m)}; default {shown}")
+                           help=f"{doc}; allowed {allowed(m)}; default {shown}")
+
+
+def effect_options_given(args) -> list[str]:
+    """The effect options (`add_effect_options`) given on the command line, as typed."""
+    return ["--" + k.replace("_", "-") for k in effect_flags()
+            if getattr(args, k) not in (None, False)]
 
 
 def effects_from_args(args) -> Effects:

@@ -6,10 +6,24 @@ import argparse
 import json
 from dataclasses import asdict, replace
 
-from ..effects import DOFS, FRICTION_LAWS, SLIDING_VARIANTS, Effects, StiffnessSpec
+from ..effects import Effects, StiffnessSpec
 from ..modal import SLIP_NAMES, modes
 from ..params import GearParams
-from .common import add_gear_options, changed, gear_from_args
+from .common import (
+    add_effect_options,
+    add_gear_options,
+    changed,
+    effect_options_given,
+    effects_from_args,
+    gear_from_args,
+)
+
+# what an effect means for the modes, beside its meaning for a run
+_NOTES = {"dof": "the modes of the 6-DOF or the torsional (u1, u2) model",
+          "sliding": "the sliding velocity that the stick model ties",
+          "friction": "only stick_slip adds the stick model; the default is nominal with "
+                      "--dof torsional and paper sliding, which cannot stick",
+          "stiffness": "the modes use the mean mesh stiffness whatever the law"}
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -26,13 +40,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "and the gear data used as JSON")
     m.add_argument("--mu", type=float, help="coefficient of friction, [0, 1] (accepted for "
                    "symmetry with simulate; the modes do not depend on it); default 0.02")
-    m.add_argument("--dof", choices=DOFS, help="full 6-DOF or torsional (u1, u2) model; "
-                   "default full")
-    m.add_argument("--sliding", choices=SLIDING_VARIANTS, help="sliding velocity that the "
-                   "stick model ties: paper (Eq. 12) or full; default paper")
-    m.add_argument("--friction", choices=FRICTION_LAWS, help="friction law of the run: "
-                   "only stick_slip adds the stick model; default stick_slip (nominal with "
-                   "--dof torsional and paper sliding, which cannot stick)")
+    add_effect_options(m.add_argument_group(
+        "effects (without a scene file; docs/scenes.md [effects]): dof, sliding and friction "
+        "choose the models; the others are checked and leave the modes unchanged"),
+        notes=_NOTES)
     add_gear_options(m)
     return m
 
@@ -52,25 +63,28 @@ def model_description(effects: Effects) -> tuple[str, tuple[str, ...]]:
     return f"{dof}, {why}: the slip model only (teeth never stick)", ("slip",)
 
 
-def run(args) -> int:
+def model_of(args) -> tuple[GearParams, Effects, str]:
+    """The base gear data, the effects (with the mean mesh stiffness) and their source:
+    the scene file's, or Table 1 and the effect options."""
     if args.scene:
         from ..scenes import load_scene
 
-        if args.dof is not None or args.sliding is not None or args.friction is not None:
-            raise ValueError("--dof, --sliding, --friction: set these in the scene file's "
-                             "[effects]")
+        given = effect_options_given(args)
+        if given:
+            raise ValueError(f"{', '.join(given)}: set these in the scene file's [effects]")
         scene = load_scene(args.scene)
-        base, effects = scene.params, scene.effects
-        source = f"scene {scene.name}"
-    else:
-        dof = args.dof or "full"
-        sliding = args.sliding or "paper"
-        # the torsional model sticks only with full sliding (`Effects`)
-        friction = args.friction or ("nominal" if dof == "torsional" and sliding == "paper"
-                                     else "stick_slip")
-        effects = Effects(stiffness="constant", dof=dof, sliding=sliding, friction=friction)
-        base = GearParams()
-        source = "command line"
+        return scene.params, scene.effects, f"scene {scene.name}"
+    if args.friction is None:  # the torsional model sticks only with full sliding
+        torsional_paper = (args.dof or Effects().dof) == "torsional" and \
+            (args.sliding or Effects().sliding) == "paper"
+        args.friction = "nominal" if torsional_paper else Effects().friction
+    # the mean mesh stiffness (`modal.modes`), whatever --stiffness says
+    effects = replace(effects_from_args(args), stiffness=StiffnessSpec("constant"))
+    return GearParams(), effects, "command line"
+
+
+def run(args) -> int:
+    base, effects, source = model_of(args)
     if args.mu is not None:
         if any(i.partition("=")[0].strip() == "mu" for i in args.set):
             raise ValueError("give --mu or --set mu=..., not both")

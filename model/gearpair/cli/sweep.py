@@ -14,7 +14,7 @@ from typing import Any
 from ..params import RTOL_MIN
 from ..sweep.grid import Grid
 from ..sweep.settings import SweepSettings
-from .common import parse_set
+from .common import add_effect_options, effects_from_args, parse_set
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -30,7 +30,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
                     "PREFIX.json and PREFIX.png; a grid PREFIX.json and maps PREFIX_map*.png. "
                     "Examples: gearpair sweep speed_rpm 5:600:300 --out speed; gearpair sweep "
                     "speed_rpm=5:600:120 torque=1000:4000:7 mu=0.01,0.02,0.03 --out grid")
-    from ..effects import FRICTION_LAWS, SLIDING_VARIANTS, STICK_TIES, STIFFNESS_KINDS
     from ..params import RTOL_MAX
 
     s.add_argument("grid", nargs="*", metavar="PARAM VALUES | NAME=VALUES",
@@ -71,19 +70,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="change a GearParams field (SI), e.g. --set mu=0.03; repeatable; "
                    "default: Table 1")
-    s.add_argument("--friction", default=d.friction, choices=FRICTION_LAWS,
-                   help="friction law: stick_slip (the paper's model), nominal (the slip "
-                   f"model), regularized or off; default {d.friction}")
-    s.add_argument("--stick-tie", default=d.stick_tie, choices=STICK_TIES,
-                   help=f"how stuck teeth move together: exact (v = 0) or paper (Eq. 19); "
-                   f"default {d.stick_tie}")
-    s.add_argument("--sliding", default=d.sliding, choices=SLIDING_VARIANTS,
-                   help=f"sliding velocity: paper (Eq. 12) or full; default {d.sliding}")
-    s.add_argument("--stiffness", default=d.stiffness,
-                   choices=[k for k in STIFFNESS_KINDS if k != "table"],
-                   help=f"mesh stiffness law; default {d.stiffness}")
-    s.add_argument("--no-separation", action="store_true",
-                   help="teeth never separate (a linear mesh spring); default: they do")
     s.add_argument("--rtol", type=float, default=d.rtol,
                    help=f"relative tolerance of the fast engine, [{RTOL_MIN:g}, "
                    f"{RTOL_MAX:g}]; default {d.rtol:g}")
@@ -101,6 +87,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--max-time", type=float, default=d.max_time, metavar="S",
                    help="soft cap of simulated seconds per point (s; both period counts are "
                    f"cut, never below {d.min_periods}); default {d.max_time:g}")
+    add_effect_options(s.add_argument_group("effects of every point (docs/scenes.md "
+                                            "[effects])"))
     s.add_argument("--no-plot", action="store_true", help="do not draw PREFIX.png; default: "
                    "draw it (needs matplotlib)")
     s.add_argument("--quiet", action="store_true", help="no progress bar and no messages on "
@@ -109,13 +97,13 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 
 def settings_from_args(args) -> SweepSettings:
-    """The held settings; ``--set`` is read as ``modes`` and ``simulate`` read it
-    (`common.parse_set`: the closest name for a typo, whole numbers where needed)."""
+    """The held settings; ``--set`` and the effect options are read as ``modes`` and
+    ``simulate`` read them (`common.parse_set`: the closest name for a typo, whole numbers
+    where needed; `common.effects_from_args`: a refused combination raises ``ValueError``)."""
     return SweepSettings(
         torque=args.torque, speed_rpm=args.speed_rpm,
         params=tuple(parse_set(args.set).items()),
-        friction=args.friction, stick_tie=args.stick_tie, sliding=args.sliding,
-        stiffness=args.stiffness, separation=not args.no_separation, rtol=args.rtol,
+        **effects_from_args(args).values(), rtol=args.rtol,
         steps_per_period=args.steps_per_period, transient_periods=args.transient_periods,
         transient_time=args.transient_time, kept_periods=args.kept_periods,
         max_time=args.max_time)

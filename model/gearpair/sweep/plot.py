@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..effects import Effects
 from ..params import GearParams
 from .settings import SweepSettings, sweepable
 
@@ -31,6 +32,10 @@ def sweep_title(name: str, s: SweepSettings) -> str:
     eff = f"friction {s.friction}, stiffness {s.stiffness}, sliding {s.sliding}, tie {s.stick_tie}"
     if not s.separation:
         eff += ", no separation"
+    shown = ("friction", "stiffness", "sliding", "stick_tie", "separation")
+    fx, default = s.effects().values(), Effects().values()
+    eff += "".join(f", {k} {v:g}" if isinstance(v, float) else f", {k} {v}"
+                   for k, v in fx.items() if k not in shown and v != default[k])
     return (f"sweep of {name} at {', '.join(h for h in held if h)}\n{eff}; "
             f"rtol {s.rtol:g}")
 

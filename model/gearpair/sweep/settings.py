@@ -13,6 +13,7 @@ from ..params import RPM, GearParams, OperatingPoint, check_range
 
 # Inputs that are not GearParams fields, with their units.
 INPUTS = {"speed_rpm": "r/min", "torque": "N.m"}
+_FX = Effects().values()  # the effects' defaults (the stiffness as its kind)
 
 def sweepable() -> dict[str, str]:
     """Names that can be swept, with their units: the inputs and every `GearParams` field."""
@@ -31,8 +32,10 @@ class SweepSettings:
     torque : N.m, driving torque when not swept
     speed_rpm : r/min, speed of gear 1 when not swept
     params : `GearParams` fields changed from Table 1, as ``((name, value), ...)``
-    friction, stick_tie, sliding, stiffness, separation : the `Effects` (``friction =
-        "nominal"`` is the traditional slip model, ``"stick_slip"`` the paper's model)
+    stiffness, separation, friction, v_eps, sliding, stick_tie, backlash, dof, mu_static,
+        stribeck_velocity : the `Effects`, one field each (the stiffness as its kind;
+        ``friction = "nominal"`` is the traditional slip model, ``"stick_slip"`` the paper's
+        model); `effects` makes them one `Effects`
     rtol : relative tolerance of the fast engine
     steps_per_period : engine steps per mesh period (the DTE and mesh force statistics and
         the spectrum use these samples; the ratios do not depend on them)
@@ -53,11 +56,16 @@ class SweepSettings:
     torque: float = 3900.0
     speed_rpm: float = 100.0
     params: tuple[tuple[str, float], ...] = ()
-    friction: str = "stick_slip"
-    stick_tie: str = "exact"
-    sliding: str = "paper"
-    stiffness: str = "potential_energy"
-    separation: bool = True
+    friction: str = _FX["friction"]
+    stick_tie: str = _FX["stick_tie"]
+    sliding: str = _FX["sliding"]
+    stiffness: str = _FX["stiffness"]
+    separation: bool = _FX["separation"]
+    v_eps: float = _FX["v_eps"]
+    backlash: float | None = _FX["backlash"]
+    dof: str = _FX["dof"]
+    mu_static: float | None = _FX["mu_static"]
+    stribeck_velocity: float | None = _FX["stribeck_velocity"]
     rtol: float = 1e-7
     steps_per_period: int = 8
     transient_periods: int = 100
@@ -83,6 +91,12 @@ class SweepSettings:
     def replace(self, **changes: Any) -> SweepSettings:
         return replace(self, **changes)
 
+    def effects(self) -> Effects:
+        """The `Effects` of every point (raises ``ValueError`` for a refused combination)."""
+        kw = {name: getattr(self, name) for name in _FX}
+        kw["stiffness"] = StiffnessSpec(kind=self.stiffness)
+        return Effects(**kw)
+
     def inputs(self, name: str, value: float) -> tuple[GearParams, Effects, float, float]:
         """Gear data, effects, torque (N.m) and speed (rad/s) of the point ``name = value``
         (raises ``ValueError`` for an unknown name or an invalid value)."""
@@ -103,9 +117,7 @@ class SweepSettings:
             else:
                 over[name] = value
         params = GearParams(**over)
-        effects = Effects(stiffness=StiffnessSpec(kind=self.stiffness), separation=self.separation,
-                          friction=self.friction, sliding=self.sliding, stick_tie=self.stick_tie)
-        return params, effects, torque, rpm * RPM
+        return params, self.effects(), torque, rpm * RPM
 
     def check_point(self, point: Mapping[str, float]) -> None:
         """Raise ``ValueError`` naming the parameter and its range when a value of the point

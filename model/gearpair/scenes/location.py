@@ -104,6 +104,34 @@ def _rebuild(fmu: Path, builder: Path) -> None:
     mod.build(fmu.parent, package=PACKAGE)
 
 
+def _where(fmu_path: str | Path | None) -> tuple[Path, str]:
+    if fmu_path is not None:
+        return Path(fmu_path), f"at {fmu_path}"
+    if os.environ.get(ENV):
+        return Path(os.environ[ENV]), f"at {os.environ[ENV]} (${ENV})"
+    fmu = Path.cwd() / "dist" / FMU_NAME
+    return fmu, f"in {fmu.parent} (no {ENV} set)"
+
+
+def locate_fmu(fmu_path: str | Path | None = None) -> tuple[Path, str | None]:
+    """The FMU `find_fmu` would run and, when it would rebuild it first, why (its
+    `stale_reason`), without rebuilding or warning: e.g. to start the compile of its
+    engine beside other work, or to check the FMU before a long run.
+
+    Raises
+    ------
+    SceneError
+        No FMU there, with how to build or pass one.
+    """
+    fmu, where = _where(fmu_path)
+    if not fmu.is_file():
+        raise _not_found(where)
+    reason = stale_reason(fmu)
+    builder = (read_record(fmu) or {}).get("builder") if reason else None
+    rebuilt = fmu_path is None and reason and builder and Path(builder).is_file()
+    return fmu, reason if rebuilt else None
+
+
 def find_fmu(fmu_path: str | Path | None = None, rebuild_stale: bool = True) -> Path:
     """The FMU to run: ``fmu_path``, else ``$GEARPAIR_FMU``, else ``./dist/GearPair.fmu``.
 
@@ -116,25 +144,13 @@ def find_fmu(fmu_path: str | Path | None = None, rebuild_stale: bool = True) -> 
     SceneError
         No FMU there, with how to build or pass one.
     """
-    if fmu_path is not None:
-        fmu, where = Path(fmu_path), f"at {fmu_path}"
-    elif os.environ.get(ENV):
-        fmu, where = Path(os.environ[ENV]), f"at {os.environ[ENV]} (${ENV})"
-    else:
-        fmu = Path.cwd() / "dist" / FMU_NAME
-        where = f"in {fmu.parent} (no {ENV} set)"
-    if not fmu.is_file():
-        raise _not_found(where)
+    fmu, rebuild = locate_fmu(fmu_path)
+    if rebuild and rebuild_stale:
+        print(f"gearpair: rebuilding stale {fmu}: {rebuild}", file=sys.stderr, flush=True)
+        _rebuild(fmu, Path(read_record(fmu)["builder"]))
     reason = stale_reason(fmu)
     if reason is None:
         return fmu
-    builder = (read_record(fmu) or {}).get("builder")
-    if fmu_path is None and rebuild_stale and builder and Path(builder).is_file():
-        print(f"gearpair: rebuilding stale {fmu}: {reason}", file=sys.stderr, flush=True)
-        _rebuild(fmu, Path(builder))
-        reason = stale_reason(fmu)
-        if reason is None:
-            return fmu
     warnings.warn(SceneWarning(f"{fmu} is stale ({reason}): it runs other physics than this "
                                "gearpair; rebuild it with 'python build_fmu.py'"), stacklevel=2)
     return fmu

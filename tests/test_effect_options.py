@@ -88,6 +88,20 @@ def test_every_command_that_runs_the_model_has_an_option_per_effect(cmd):
         assert meaning in a.help.replace("%%", "%"), (cmd, dest)
 
 
+def test_a_sweep_holds_every_effect():
+    """`SweepSettings` has a field per effect with its default, and its points get them."""
+    from dataclasses import fields
+
+    from gearpair.sweep.settings import SweepSettings
+
+    held = {f.name: f.default for f in fields(SweepSettings)}
+    assert {n: held.get(n, "missing") for n in OPTIONS} == Effects().values()
+    assert SweepSettings().effects() == Effects()
+    other = {n: v for n, v in OTHER.items() if n not in ("friction", "stribeck_velocity",
+                                                         "separation")}
+    assert SweepSettings(**other).inputs("mu", 0.02)[1] == Effects(**other)
+
+
 @pytest.mark.parametrize("name", list(OPTIONS))
 def test_a_value_goes_through_scene_flag_and_fmu_unchanged(name, tmp_path):
     """The other value of each effect, written as a scene key, as a command-line option and

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import shutil
-import sys
+import zipfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -25,9 +25,13 @@ ENGINE_METHODS = ("fast", "fast (step 0.001)", "fast dp5", *bench.SCIPY_METHODS,
                   *PLAIN_METHODS)
 
 
+SCENES = ROOT / "examples" / "scenes"
+
+
 @pytest.fixture(scope="module")
-def quick() -> dict:
-    return bench.run(replace(bench.QUICK, fmu=HAS_FMU))
+def quick(request) -> dict:
+    fmu = request.getfixturevalue("fmu_path") if HAS_FMU else None
+    return bench.run(replace(bench.QUICK, fmu=HAS_FMU, scenes_dir=str(SCENES)), fmu=fmu)
 
 
 def test_relative_error_on_the_reference_grid():
@@ -65,7 +69,7 @@ def test_every_method_and_regime_has_a_row(quick):
         assert e["fastest_plain"] in PLAIN_METHODS, e
         for key in ("ratio", "ratio_plain", "ratio_cpu", "ratio_plain_cpu"):
             assert e[key] > 0, (key, e)
-    assert quick["plain_scipy"]["note"] is None
+    assert quick["plain_scipy"] == {"module": "gearpair.bench.plain_scipy"}
 
 
 def test_plain_scipy_is_cross_checked_against_the_reference(quick):
@@ -75,15 +79,6 @@ def test_plain_scipy_is_cross_checked_against_the_reference(quick):
     plain = checks["plain DOP853"]
     assert plain["horizon_s"] == bench.QUICK.window("stick_slip")
     assert plain["diff_dte"] < 1e-9 and plain["diff_force"] < 1e-9, plain
-
-
-def test_plain_rows_skipped_with_a_note_without_the_repository(monkeypatch, tmp_path):
-    from gearpair.bench import plain
-
-    monkeypatch.setattr(plain, "PLAIN_SCRIPT", tmp_path / "plain_scipy.py")
-    monkeypatch.delitem(sys.modules, plain._MODULE, raising=False)
-    rows, checks, note = plain.plain_rows(bench.QUICK, {})
-    assert rows == [] and checks == [] and "benchmarks/" in note
 
 
 @pytest.mark.parametrize("method", ["fast", "fast dp5"])
@@ -116,6 +111,10 @@ def test_step_costs_fmu_and_calls(quick):
     assert all(c["error"] is None and c["wall_per_sim_s"] > 0 for c in quick["core_steps"])
     if not HAS_FMU:
         pytest.skip("pythonfmu/fmpy missing")
+    assert "fmu_error" not in quick, quick.get("fmu_error")
+    # the FMU passed (the session's fresh build), named in the report
+    assert quick["fmu_file"].endswith("GearPair.fmu")
+    assert f"FMU measured: {quick['fmu_file']}" in bench.report(quick)
     fm = quick["fmu"]
     assert {st["regime"] for st in fm["steps"]} == set(bench.REGIMES)
     for st in fm["steps"]:
@@ -159,20 +158,29 @@ def test_c_host_rows(quick):
 
 
 @pytest.mark.skipif(not HAS_FMU or shutil.which("gcc") is None, reason="pythonfmu/fmpy/gcc")
-def test_noop_floor_runs_on_the_same_c_layer(tmp_path):
+def test_noop_floor_runs_on_the_same_c_layer(fmu_path, tmp_path):
     import zipfile
 
-    gearpair, noop = bench.build_fmus(tmp_path)
+    import fmpy
+
+    noop = bench.build_noop(fmu_path, tmp_path)
     libs = {}
-    for fmu, model in ((gearpair, "GearPair"), (noop, "GearPairNoop")):
+    for fmu, model in ((fmu_path, "GearPair"), (noop, "GearPairNoop")):
         with zipfile.ZipFile(fmu) as z:
             outer = z.read(f"binaries/linux64/{model}.so")
-            inner = z.read(f"binaries/linux64/{model}_pythonfmu.so")
+            inner = z.read("binaries/linux64/GearPair_pythonfmu.so")
+            assert {n for n in z.namelist() if n.startswith("binaries/")} == {
+                "binaries/linux64/GearPair_pythonfmu.so", f"binaries/linux64/{model}.so"}
         # the FMU's binary is the layer, which loads pythonfmu's library beside it by name
-        assert outer != inner and f"{model}_pythonfmu.so".encode() in outer, model
-        libs[model] = inner
-    # and the library under the layer is the same pythonfmu binary in both
+        assert outer != inner and b"GearPair_pythonfmu.so" in outer, model
+        libs[model] = (outer, inner)
+    # the no-op runs on GearPair's own binary: the same layer over the same library
     assert libs["GearPair"] == libs["GearPairNoop"]
+    # with the GUID the layer checks, and GearPair's value references and types
+    mds = [fmpy.read_model_description(str(f)) for f in (fmu_path, noop)]
+    assert mds[0].guid == mds[1].guid
+    assert [(v.name, v.valueReference, v.type) for v in mds[0].modelVariables] == \
+        [(v.name, v.valueReference, v.type) for v in mds[1].modelVariables]
 
 
 def test_startup_rows_say_how_the_code_was_obtained():
@@ -192,9 +200,6 @@ def test_startup_rows_say_how_the_code_was_obtained():
 def test_c_host_skipped_with_a_note(monkeypatch, tmp_path):
     from gearpair.bench import chost
 
-    monkeypatch.setattr(chost, "HOST_SOURCE", tmp_path / "fmi2_bench_host.c")
-    host, note = chost.build_host(tmp_path)
-    assert host is None and "benchmarks/" in note
     monkeypatch.setattr(chost.shutil, "which", lambda name: None)
     assert "gcc" in chost.build_host(tmp_path)[1]
     assert chost.exit_note(0) == "0" and chost.exit_note(-11) == "SIGSEGV at exit"
@@ -202,7 +207,8 @@ def test_c_host_skipped_with_a_note(monkeypatch, tmp_path):
 
 def test_cost_table_covers_scenes_and_ladder(quick):
     cost = quick["cost"]
-    shipped = {p.stem for p in bench.SCENES_DIR.glob("*.toml")}
+    shipped = {p.stem for p in SCENES.glob("*.toml")}
+    assert cost["scenes_note"] is None
     assert {r["scene"] for r in cost["scenes"]} == shipped
     assert all(r["error"] is None and r["wall_per_sim_s"] > 0 for r in cost["scenes"])
     assert [r["rung"] for r in cost["ladder"]] == [label for label, _ in bench.LADDER]
@@ -238,20 +244,49 @@ def test_plot(quick, tmp_path):
 def test_cli_bench_delegates(quick, monkeypatch, capsys, tmp_path):
     seen = {}
 
-    def fake_run(s, progress=None, fmu_dir=None):
-        seen["settings"] = s
+    def fake_run(s, progress=None, fmu=None, fmu_dir=None):
+        seen["settings"], seen["fmu"] = s, fmu
         return quick
 
     monkeypatch.setattr(bench, "run", fake_run)
     assert cli.main(["bench", "--quick", "--json", "--no-fmu", "--step-horizon", "0.05"]) == 0
     assert seen["settings"].name == "quick" and not seen["settings"].fmu
     assert seen["settings"].step_horizon == 0.05
+    assert seen["settings"].scenes_dir == bench.SCENES_DIR == "examples/scenes"
     assert json.loads(capsys.readouterr().out)["settings"]["name"] == "quick"
-    assert cli.main(["bench", "--full", "--no-startup"]) == 0
+    fmu = tmp_path / "GearPair.fmu"
+    zipfile.ZipFile(fmu, "w").close()  # an FMU of no package: not judged stale
+    assert cli.main(["bench", "--full", "--no-startup", "--fmu", str(fmu), "--scenes",
+                     str(SCENES)]) == 0
     assert seen["settings"].name == "full" and seen["settings"].memory
-    assert not seen["settings"].startup
+    assert not seen["settings"].startup and seen["fmu"] == str(fmu)
+    assert seen["settings"].scenes_dir == str(SCENES)
     assert "Targets" in capsys.readouterr().out
     assert cli.main(["bench", "--step-horizon", "-1"]) == 2
+
+
+def test_bench_without_an_fmu_says_how_to_get_one_before_it_runs(no_runs, monkeypatch,
+                                                                  tmp_path, capsys):
+    """The FMU is found where build_fmu.py puts it (or passed): the package never looks for
+    a repository. Without one the command stops at once, saying how to build or pass it."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("GEARPAIR_FMU", raising=False)
+    assert cli.main(["bench", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert "no GearPair.fmu in" in err and "build_fmu.py" in err and "--fmu PATH" in err
+    assert "--no-fmu" in err
+    assert cli.main(["bench", "--quick", "--scenes", str(tmp_path / "none")]) == 2
+    assert "--scenes" in capsys.readouterr().err
+
+
+def test_cost_table_skips_the_scenes_with_a_note_without_their_folder(tmp_path):
+    cost = bench.cost_table(replace(bench.QUICK, scenes_dir=str(tmp_path / "none")))
+    assert cost["scenes"] == [] and "--scenes DIR" in cost["scenes_note"]
+    assert [r["rung"] for r in cost["ladder"]] == [label for label, _ in bench.LADDER]
+    from gearpair.bench.report import _cost
+
+    text = "\n".join(_cost({"cost": cost}))
+    assert cost["scenes_note"] in text and "Effect ladder" in text
 
 
 def test_memory_peak_of_a_short_run():
@@ -273,6 +308,7 @@ def test_bench_compiles_the_fmus_engine_beside_its_warm_up_and_before_any_timing
 
     import gearpair.shipped
     from gearpair.bench import QUICK, measure
+    from gearpair.scenes import location
 
     events, msgs, release = [], [], threading.Event()
 
@@ -294,23 +330,32 @@ def test_bench_compiles_the_fmus_engine_beside_its_warm_up_and_before_any_timing
     monkeypatch.setattr(gearpair.shipped, "ship", ship)
     monkeypatch.setattr(measure, "warm_up", warm_up)
     monkeypatch.setattr(measure, "references", references)
+    # a stale FMU that find_fmu rebuilds: the compile of its engine overlaps the warm-up
+    monkeypatch.setattr(location, "locate_fmu", lambda fmu: (Path("GearPair.fmu"), "stale"))
     with pytest.raises(_Stop):
         measure.run(QUICK, msgs.append)
     assert ("ship", "_gearpair_fmu", True) in events  # a copy of the package, the FMU's name
     assert events.index("warm-up") < events.index("ship done") < events.index("timed")
     said = "\n".join(msgs)
-    assert "compiling the FMU's engine in a child process" in said
+    assert "compiling its engine in a child process" in said
     assert "FMU's engine (for x86-64-v2 CPUs): compiled once" in said
+    # an FMU that is not rebuilt: nothing to compile ahead
+    events.clear()
+    monkeypatch.setattr(location, "locate_fmu", lambda fmu: (Path("GearPair.fmu"), None))
+    with pytest.raises(_Stop):
+        measure.run(QUICK, msgs.append)
+    assert events == ["warm-up", "timed"]
 
 _NO_LOAD_AFTER_WARM_UP = r"""
 import json, sys
+from dataclasses import replace
 from gearpair import jitcache
 from gearpair.bench import QUICK, cost_table, core_step_costs, engine_call_cost, warm_up
 warm_up()
 before = dict(jitcache.STATS)
 core_step_costs(QUICK, {r: [1e-6] for r in ("no_friction", "sliding", "stick_slip")})
 engine_call_cost(20)
-cost_table(QUICK)
+cost_table(replace(QUICK, scenes_dir=sys.argv[1]))  # the example scenes too
 print(json.dumps([before, jitcache.STATS]))
 """
 
@@ -322,7 +367,8 @@ def test_bench_warm_up_loads_every_compiled_path_that_is_timed(tmp_path):
     import sys
 
     pytest.importorskip("numba")
-    proc = subprocess.run([sys.executable, "-c", _NO_LOAD_AFTER_WARM_UP], cwd=tmp_path,
+    proc = subprocess.run([sys.executable, "-c", _NO_LOAD_AFTER_WARM_UP, str(SCENES)],
+                          cwd=tmp_path,
                           capture_output=True, text=True, timeout=1800)
     assert proc.returncode == 0, proc.stderr[-2000:]
     before, after = json.loads(proc.stdout.strip().splitlines()[-1])

@@ -5,7 +5,9 @@ is the module map of every module."""
 from __future__ import annotations
 
 import ast
+import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -139,3 +141,55 @@ def test_the_module_map_names_every_module_and_no_other():
     named = _module_map()
     assert sorted(actual - named - {"__init__.py"}) == []
     assert sorted(named - actual) == []
+
+
+# -- a package that stands alone --------------------------------------------------------------
+def test_no_module_reaches_above_the_package():
+    """``Path(__file__).parents[k]`` stays inside the package (k at most the module's depth
+    in it): the package never looks for a repository, whose files an installed wheel lacks."""
+    above = []
+    for rel, path in ((p.relative_to(PACKAGE), p) for p in MODULES.values()):
+        depth = len(rel.parts) - 1  # gearpair/bench/x.py: parents[1] is gearpair/
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Subscript) and getattr(node.value, "attr", "") == "parents":
+                k = node.slice.value if isinstance(node.slice, ast.Constant) else None
+                if not isinstance(k, int) or k > depth:
+                    above.append(f"{rel.as_posix()}:{node.lineno} parents[{k}]")
+    assert above == []
+
+
+_INSTALLED = r"""
+import pathlib, sys
+import gearpair
+from gearpair.bench import plain_scipy, settings
+
+lib = pathlib.Path(sys.argv[1]).resolve()
+assert pathlib.Path(gearpair.__file__).resolve().is_relative_to(lib), gearpair.__file__
+for f in (settings.NOOP_SCRIPT, settings.HOST_SOURCE, settings.HERE.parent / "stepblock.py",
+          pathlib.Path(plain_scipy.__file__)):
+    assert f.resolve().is_relative_to(lib) and f.is_file(), f
+print("ok")
+"""
+
+
+def test_the_installed_package_holds_every_file_the_bench_reads(tmp_path):
+    """What a wheel installs (setuptools' ``build_py`` under the project's pyproject.toml: the
+    packages with their package data), imported with no repository around it, finds the
+    bench's own files inside itself: the no-op slave, the C timing host, the step block's
+    layout and the plain scipy model."""
+    root = PACKAGE.parents[1]
+    src, lib = tmp_path / "src", tmp_path / "lib"
+    (src / "model").mkdir(parents=True)
+    for name in ("pyproject.toml", "README.md"):
+        (src / name).write_bytes((root / name).read_bytes())
+    shutil.copytree(PACKAGE, src / "model" / "gearpair",
+                    ignore=shutil.ignore_patterns("__pycache__", "_compiled", "*.pyc"))
+    subprocess.run([sys.executable, "-c", "from setuptools import setup; setup()", "-q",
+                    "build_py", "-d", str(lib)], cwd=src, check=True, capture_output=True,
+                   timeout=120)
+    assert (lib / "gearpair" / "bench" / "fmi2_bench_host.c").is_file()
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    out = subprocess.run([sys.executable, "-c", _INSTALLED, str(lib)], cwd=tmp_path,
+                         env={**env, "PYTHONPATH": str(lib)}, capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]

@@ -1,33 +1,55 @@
-"""The plain scipy implementation of benchmarks/plain_scipy.py against the fast engine.
+"""The plain scipy implementation (`gearpair.bench.plain_scipy`) against the fast engine.
 
 It is the bench's "what a user would write" row, so its numbers are only worth quoting if it
 integrates the same model: it must agree with the fast engine to its tolerance, through the
-pair entries/exits and the sticks of the first 20 ms at the paper's point.
+pair entries/exits and the sticks of the first 20 ms at the paper's point. And it must stay
+what a user writes: it takes data from the package, never its engines.
 """
 
 from __future__ import annotations
 
-import importlib.util
+import ast
+import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from gearpair.bench import plain_scipy
 from gearpair.effects import Effects
 from gearpair.results import simulate
 
-PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "plain_scipy.py"
+ROOT = Path(__file__).resolve().parents[1]
+# what it may import of gearpair: data (gear data, geometry, the stiffness law); the fast
+# engine only in `compare_with_fast`, the comparison
+DATA = {"gearpair.effects", "gearpair.geometry", "gearpair.params", "gearpair.stiffness"}
 
 
 @pytest.fixture(scope="module")
 def plain():
-    spec = importlib.util.spec_from_file_location("plain_scipy_under_test", PATH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # its dataclasses look their module up there
-    spec.loader.exec_module(mod)
-    yield mod
-    sys.modules.pop(spec.name, None)
+    return plain_scipy
+
+
+def _gearpair_imports(node: ast.AST) -> set[str]:
+    out = {n.module for n in ast.walk(node) if isinstance(n, ast.ImportFrom)}
+    out |= {a.name for n in ast.walk(node) if isinstance(n, ast.Import) for a in n.names}
+    return {m for m in out if m and m.startswith("gearpair")}
+
+
+def test_takes_only_data_from_the_package():
+    tree = ast.parse(Path(plain_scipy.__file__).read_text())
+    compare = next(n for n in tree.body
+                   if isinstance(n, ast.FunctionDef) and n.name == "compare_with_fast")
+    rest = set().union(*(_gearpair_imports(n) for n in tree.body if n is not compare))
+    assert rest <= DATA, rest - DATA
+    assert _gearpair_imports(compare) <= DATA | {"gearpair.results"}
+
+
+def test_the_repository_entry_point_runs_it():
+    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "plain_scipy.py"),
+                          "--help"], capture_output=True, text=True, timeout=120, check=True)
+    assert "--method" in out.stdout
 
 
 def _fast(friction: str, t_end: float, dt: float = 1e-4) -> dict:

@@ -1,6 +1,6 @@
 """Benchmark: work-precision of the integrators, cost of the FMU and cost of each effect.
 
-``gearpair bench [--quick | --full] [--json] [--plot FILE] [--memory]`` (issues #4 and #5)
+``gearpair bench [--quick | --full] [--json] [--plot FILE] [--memory] [--fmu PATH]``
 measures in one run, side by side on the same machine:
 
 - **work-precision** for three regimes at the paper's low-speed point (3900 N.m, 100 r/min):
@@ -12,26 +12,32 @@ measures in one run, side by side on the same machine:
   default DOP853 and with Dormand-Prince 5(4) (rows ``fast dp5``); scipy's
   RK45, DOP853, Radau and LSODA, run as `gearpair.reference.ReferenceEngine` (scipy's
   ``OdeSolver`` classes, which ``solve_ivp`` drives, stepped segment by segment over the same
-  physics); the same four as a user would write the model, ``benchmarks/plain_scipy.py``
-  (rows ``plain <method>``: one numpy right-hand side per contact state, ``solve_ivp`` with
-  terminal events; skipped without the repository); the FMU through fmpy at communication
-  steps 1e-5, 1e-4 and 1e-3 s.
+  physics); the same four as a user would write the model, `plain_scipy` (rows
+  ``plain <method>``: one numpy right-hand side per contact state, ``solve_ivp`` with
+  terminal events); the FMU through fmpy at communication steps 1e-5, 1e-4 and 1e-3 s.
 - **equal accuracy**: per method the cheapest setting with DTE error <= 1e-6, and the ratios
   fastest scipy method / fast core, on the reference engine and written plainly.
 - **FMU cost** at a 1e-3 s step against the core at the same step (driven as the FMU drives
   it: one ``advance`` + ``outputs`` call per step) and the plumbing floor (the
-  same fmpy call on a pythonfmu slave that does nothing, ``examples/bench_noop``, with the
-  same C layer as GearPair.fmu); the cost of one set+doStep+get call; the first
+  same fmpy call on a pythonfmu slave that does nothing, ``GearPairNoop.py`` beside this
+  module, run on GearPair.fmu's own binary); the cost of one set+doStep+get call; the first
   instantiation with empty caches (the FMU's shipped code) against warm ones and, outside
   ``--quick``, with ``GEARPAIR_SHIPPED_CODE=0`` (compile).
 - **the FMU in a C master**: per-step cost of set 2 inputs + doStep + get 4
-  outputs at 1e-4 and 1e-3 s steps in ``benchmarks/fmi2_bench_host.c`` beside fmpy's, with
-  the no-op slave and the engine's own work, and the first start with empty and warm caches
-  (skipped without gcc or the repository).
-- **cost of effects**: wall time per simulated second of every shipped scene and
+  outputs at 1e-4 and 1e-3 s steps in ``fmi2_bench_host.c`` (beside this module) beside
+  fmpy's, with the no-op slave and the engine's own work, and the first start with empty and
+  warm caches (skipped without gcc).
+- **cost of effects**: wall time per simulated second of every example scene (the folder
+  ``examples/scenes`` of the current directory, or ``--scenes DIR``; skipped with a note
+  without one) and
   of the effect ladder torsional constant stiffness -> time-varying -> 6-DOF -> sliding ->
   stick-slip.
 - **memory** (``--memory``, in ``--full``): peak RSS of a 100 s run recorded every 1e-4 s.
+
+The FMU is the one `gearpair.scenes.location.find_fmu` finds (``--fmu PATH``, else
+``$GEARPAIR_FMU``, else ``dist/GearPair.fmu`` of the current directory, rebuilt there when
+stale), so the package needs no repository: its own files (the no-op slave, the C host, the
+plain scipy model) ship inside it.
 
 Every section is a function returning plain dicts and lists (JSON-ready), so tests can call
 them with tiny settings; `run` calls them all and `report` prints the tables. Measuring and
@@ -47,10 +53,10 @@ from __future__ import annotations
 
 from .chost import build_host, host_measurements, run_host
 from .effect_cost import LADDER_RUNS, cost_table
-from .fmu import build_fmus, fmu_measurements, fmu_start, fmu_startup
+from .fmu import build_noop, fmu_measurements, fmu_start, fmu_startup
 from .measure import run, warm_up
 from .memory import memory_peak
-from .plain import load_plain, plain_rows
+from .plain import plain_rows
 from .plot import plot
 from .report import jsonable, report, table
 from .runs import (
@@ -74,11 +80,9 @@ from .settings import (
     LADDER,
     NOOP_SCRIPT,
     PLAIN_PREFIX,
-    PLAIN_SCRIPT,
     PRESETS,
     QUICK,
     REGIMES,
-    ROOT,
     SCENES_DIR,
     SCIPY_MAX_EVENTS,
     SCIPY_METHODS,
@@ -104,14 +108,14 @@ from .work_precision import (
 
 __all__ = [
     "DEFAULT", "FRICTION_OF", "FULL", "HOST_SOURCE", "LADDER", "LADDER_RUNS", "NEVER",
-    "NOOP_SCRIPT", "PLAIN_PREFIX", "PLAIN_SCRIPT", "PRESETS", "QUICK", "REGIMES", "ROOT",
-    "SCENES_DIR", "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FIRST_START_S",
+    "NOOP_SCRIPT", "PLAIN_PREFIX", "PRESETS", "QUICK", "REGIMES", "SCENES_DIR",
+    "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FIRST_START_S",
     "TARGET_FMU_FACTOR", "TARGET_LADDER", "TARGET_MEMORY_MB", "TARGET_SLAVE_OWN_US",
     "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls", "accurate_rtol",
-    "BudgetExceeded", "build_fmus", "build_host", "clock", "core_step_costs",
+    "BudgetExceeded", "build_host", "build_noop", "clock", "core_step_costs",
     "cost_table", "engine_call_cost", "engine_rows", "engine_run", "equal_accuracy",
     "fmu_measurements", "fmu_start", "fmu_startup", "host_measurements", "jsonable",
-    "load_plain", "machine_info", "memory_peak", "plain_rows", "plot", "references",
+    "machine_info", "memory_peak", "plain_rows", "plot", "references",
     "regime_effects", "relative_error", "report", "run", "run_host", "Settings",
     "table", "targets", "time_limit", "Timing", "warm_up",
 ]

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from .runs import NEVER, Timing, _best_of, _record, clock
-from .settings import LADDER, SCENES_DIR, TARGET_LADDER, Progress, Settings, _quiet
+from .settings import LADDER, TARGET_LADDER, Progress, Settings, _quiet
 
 LADDER_RUNS = (("step_1e-3", 1e-3), ("out_1e-4", 1e-4))  # communication step of the rungs
 
@@ -17,8 +19,15 @@ def cost_table(s: Settings, rtol: float = 1e-8, progress: Progress = _quiet) -> 
     ``cost_t_end`` s, construction included. Ladder rungs run at the default point with
     ``rtol``, stepped every 1e-3 s (``step_1e-3``) and recorded every 1e-4 s (``out_1e-4``),
     construction excluded. Keys ``wall_<run>`` and ``cpu_<run>`` are s per simulated s.
+    ``scenes_note`` says why there are no scene rows (no folder ``s.scenes_dir``).
     """
-    scenes = scene_costs(s, progress)
+    folder = Path(s.scenes_dir)
+    note = None if folder.is_dir() else (
+        f"scene rows skipped: no folder {s.scenes_dir} here (the repository's example scenes; "
+        "run from a checkout or pass --scenes DIR)")
+    if note:
+        progress(note)
+    scenes = [] if note else scene_costs(s, progress)
     best, fails = _ladder_rounds(s, rtol)
     ladder = []
     for label, kw in LADDER:
@@ -27,13 +36,13 @@ def cost_table(s: Settings, rtol: float = 1e-8, progress: Progress = _quiet) -> 
         progress(f"ladder {label}: " + (f"failed: {row['error']}" if row["error"] else
                                         f"{row['wall_step_1e-3']:.3f} s per simulated s "
                                         "at 1e-3 s steps"))
-    return {"t_end": s.cost_t_end, "rtol": rtol, "scenes": scenes, "ladder": ladder,
-            "checks": _ladder_checks(ladder)}
+    return {"t_end": s.cost_t_end, "rtol": rtol, "scenes": scenes, "scenes_note": note,
+            "ladder": ladder, "checks": _ladder_checks(ladder)}
 
 
 def scene_costs(s: Settings, progress: Progress = _quiet) -> list[dict]:
-    """Every ``examples/scenes/*.toml`` over its first ``cost_t_end`` s (best of
-    ``repeats``, construction included): wall and CPU s per simulated s."""
+    """Every scene ``*.toml`` of the folder ``s.scenes_dir`` over its first ``cost_t_end`` s
+    (best of ``repeats``, construction included): wall and CPU s per simulated s."""
     from ..scenes import load_scene
 
     def timed_scene(scene) -> Timing:
@@ -42,7 +51,7 @@ def scene_costs(s: Settings, progress: Progress = _quiet) -> list[dict]:
         return clock() - t0
 
     scenes = []
-    for path in sorted(SCENES_DIR.glob("*.toml")):
+    for path in sorted(Path(s.scenes_dir).glob("*.toml")):
         scene = load_scene(path)
         scene = scene.with_t_end(min(scene.t_end, s.cost_t_end))
         took, err = _best_of(lambda sc=scene: timed_scene(sc), s.repeats)

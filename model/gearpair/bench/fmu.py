@@ -1,20 +1,22 @@
-"""FMU measurements: built from the working tree, driven by fmpy in child processes."""
+"""FMU measurements: the GearPair FMU that `gearpair.scenes.location.find_fmu` finds (or the
+one passed) and the no-op slave made beside it, driven by fmpy in child processes."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from ..scenes import driver
 from .runs import Timing, _errors, regime_effects
-from .settings import NOOP_SCRIPT, REGIMES, ROOT, TARGET_FMU_FACTOR, Progress, Settings, _quiet
+from .settings import NOOP_SCRIPT, REGIMES, TARGET_FMU_FACTOR, Progress, Settings, _quiet
 from .work_precision import _FAILED, _NO_ERRORS, _row, engine_call_cost
 
 # Runs in a child process that never imports the working tree's gearpair: the FMU driver's
@@ -162,32 +164,34 @@ def _worker(job: dict, env: dict | None = None, timeout: float = 3600.0) -> dict
         return json.loads(of.read_text())
 
 
-def build_fmus(outdir: str | Path, progress: Progress | None = None) -> tuple[Path, Path]:
-    """Build GearPair.fmu (build_fmu.build, current sources) and the no-op slave with the
-    same variables (its ``interface.json`` is read from the GearPair modelDescription) and
-    the same C layer (``build_fmu.add_c_layer``) over pythonfmu's library. ``progress``
-    gets the build's steps (default: build_fmu.py's lines on stderr)."""
+def build_noop(gearpair_fmu: str | Path, outdir: str | Path) -> Path:
+    """Build ``<outdir>/GearPairNoop.fmu``: the slave that does nothing
+    (``gearpair/bench/GearPairNoop.py``) with the variables of ``gearpair_fmu`` (its
+    ``interface.json``: every variable of that modelDescription, in value-reference order,
+    so that both have the same value references), built with pythonfmu and then run on
+    GearPair's own binary: its C layer and pythonfmu's library under it are copied from
+    ``gearpair_fmu``, with GearPair's GUID, which the layer checks. The floor is then the
+    cost of the same binary (otherwise the layer's cheaper calls make GearPair - no-op
+    negative), and the no-op needs neither the repository's build script nor a compiler.
+
+    Raises RuntimeError when ``gearpair_fmu`` has no C layer or its value references are not
+    0, 1, 2, ... in the order of its modelDescription (the no-op could not match them)."""
     import shutil
 
     import fmpy
     from pythonfmu.builder import FmuBuilder
 
     outdir = Path(outdir)
-    spec = importlib.util.spec_from_file_location("_gearpair_bench_build_fmu",
-                                                  ROOT / "build_fmu.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    if progress is None:
-        gearpair_fmu = Path(mod.build(outdir))
-    else:
-        gearpair_fmu = Path(mod.build(outdir, progress=lambda m: progress("build_fmu: " + m)))
     md = fmpy.read_model_description(str(gearpair_fmu))
+    if [v.valueReference for v in md.modelVariables] != list(range(len(md.modelVariables))):
+        raise RuntimeError(f"{gearpair_fmu}: value references not 0, 1, 2, ... in order; the "
+                           "no-op slave cannot take its variables")
     iface = [{"name": v.name, "type": v.type, "causality": v.causality,
               "variability": v.variability, "description": v.description,
               "start": None if v.start is None else
               {"Real": float, "Integer": int}.get(v.type, lambda x: x in (True, "true"))(
                   v.start)}
-             for v in md.modelVariables if v.causality in ("input", "output", "parameter")]
+             for v in md.modelVariables]
     src = outdir / "noop_src"
     src.mkdir(parents=True, exist_ok=True)
     shutil.copy(NOOP_SCRIPT, src / NOOP_SCRIPT.name)
@@ -198,10 +202,49 @@ def build_fmus(outdir: str | Path, progress: Progress | None = None) -> tuple[Pa
     noop = Path(FmuBuilder.build_FMU(src / NOOP_SCRIPT.name, dest=outdir / "GearPairNoop.fmu",
                                      project_files=[src / "interface.json",
                                                     src / "stepblock.py"]))
-    # the floor runs on the same binary as GearPair.fmu: this project's C layer over
-    # pythonfmu's library (otherwise the layer's cheaper calls make GearPair - no-op negative)
-    mod.add_c_layer(noop, native=True)
-    return gearpair_fmu, noop
+    _run_on_the_binary_of(noop, gearpair_fmu, md)
+    return noop
+
+
+_LAYER_RESOURCES = ("resources/python.txt", "resources/gearpair_python.py")  # the C layer's
+
+
+def _run_on_the_binary_of(noop: Path, gearpair_fmu: str | Path, md) -> None:
+    """Make ``noop``'s Linux binary the C layer of ``gearpair_fmu`` (and the library it loads
+    beside it, by the name the layer was built with), with that FMU's GUID and the layer's
+    resources; binaries for other platforms are left out."""
+    import fmpy
+
+    model = md.coSimulation.modelIdentifier
+    with zipfile.ZipFile(gearpair_fmu) as z:
+        names = set(z.namelist())
+        layer = f"binaries/linux64/{model}.so"
+        inner = [n for n in names if n.startswith("binaries/linux64/")
+                 and n.endswith("_pythonfmu.so")]
+        if layer not in names or len(inner) != 1:
+            raise RuntimeError(f"{gearpair_fmu} has no C layer over pythonfmu's library "
+                               "(binaries/linux64): build it with build_fmu.py")
+        copied = {n: z.read(n) for n in (layer, inner[0], *_LAYER_RESOURCES) if n in names}
+    nmd = fmpy.read_model_description(str(noop))
+    mine = {v.name: (v.valueReference, v.type) for v in nmd.modelVariables}
+    theirs = {v.name: (v.valueReference, v.type) for v in md.modelVariables}
+    if mine != theirs:
+        raise RuntimeError("the no-op slave's variables differ from GearPair's")
+    noop_model = nmd.coSimulation.modelIdentifier
+    with zipfile.ZipFile(noop) as z:
+        entries = {n: z.read(n) for n in z.namelist() if not n.startswith("binaries/")}
+    xml = entries["modelDescription.xml"].decode("utf-8")
+    xml, n = re.subn(r'guid="[^"]*"', f'guid="{md.guid}"', xml, count=1)
+    if n != 1:
+        raise RuntimeError("the no-op slave's modelDescription.xml has no guid")
+    entries["modelDescription.xml"] = xml.encode("utf-8")
+    entries[f"binaries/linux64/{noop_model}.so"] = copied.pop(layer)
+    entries.update(copied)  # the library under the layer, python.txt, gearpair_python.py
+    tmp = noop.with_suffix(".tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in entries.items():
+            z.writestr(name, data)
+    tmp.replace(noop)
 
 
 def fmu_start(fmu: str | Path, regime: str, rtol: float, effects=None) -> dict:

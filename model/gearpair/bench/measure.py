@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .chost import host_measurements
 from .effect_cost import cost_table
-from .fmu import build_fmus, fmu_measurements, fmu_startup
+from .fmu import build_noop, fmu_measurements, fmu_startup
 from .memory import memory_peak
 from .plain import plain_rows
 from .runs import _record, _record_calls, machine_info, regime_effects
@@ -49,7 +49,8 @@ class _FmuEngineCompile:
     """The engine that GearPair.fmu ships, compiled for a portable CPU in a child process
     (`gearpair.shipped.ship`, on a copy of the package) while this process warms its own
     engine: on a first run after an engine change the two compiles take about 30 s each,
-    and on two cores they overlap. `build_fmus` then finds the FMU's engine in the cache."""
+    and on two cores they overlap. The rebuild of a stale FMU (`find_fmu`) then finds its
+    engine in the cache."""
 
     def __init__(self, progress: Progress):
         import threading
@@ -71,7 +72,7 @@ class _FmuEngineCompile:
                                 ignore=shutil.ignore_patterns("__pycache__", "*.pyc",
                                                               shipped.SHIPPED_FOLDER))
                 self.manifest = shipped.ship(pkg, FMU_BUNDLE)
-        except Exception as exc:  # noqa: BLE001 - build_fmus compiles (and reports) it again
+        except Exception as exc:  # noqa: BLE001 - the rebuild compiles (and reports) it again
             self.error = f"{type(exc).__name__}: {exc}"
 
     def wait(self) -> None:
@@ -91,19 +92,31 @@ class _FmuEngineCompile:
                           f"after {took:.1f} s")
 
 
-def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path | None = None
-        ) -> dict:
+def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu: str | Path | None = None,
+        fmu_dir: str | Path | None = None) -> dict:
     """Run every section of the benchmark with settings ``s``; a JSON-ready dict.
 
-    ``fmu_dir``: where to build the FMUs (default a temporary folder).
+    ``fmu``: the GearPair FMU to measure (`gearpair.scenes.location.find_fmu`: default
+    ``$GEARPAIR_FMU``, else ``dist/GearPair.fmu`` of the current directory, rebuilt there
+    when stale); ``fmu_dir``: where to build the no-op slave (default a temporary folder).
+
+    Raises
+    ------
+    SceneError
+        ``s.fmu`` and no FMU there (before anything runs), with how to build or pass one.
     """
+    from ..scenes.location import locate_fmu
+
     t_start = time.perf_counter()
     result: dict = {"machine": machine_info(), "settings": asdict(s)}
     ahead = None
     if s.fmu:
-        progress("compiling the FMU's engine in a child process (about 30 s once per "
-                 "engine change; seconds when cached) beside this process's warm-up")
-        ahead = _FmuEngineCompile(progress)
+        _, rebuild = locate_fmu(fmu)
+        if rebuild:  # find_fmu rebuilds it: its engine compiles here, beside the warm-up
+            progress(f"the FMU is stale ({rebuild}) and is rebuilt: compiling its engine in "
+                     "a child process (about 30 s once per engine change; seconds when "
+                     "cached) beside this process's warm-up")
+            ahead = _FmuEngineCompile(progress)
     result["warm_up_s"] = warm_up(progress)
     if ahead is not None:  # nothing timed runs while a compile takes a core
         ahead.wait()
@@ -112,25 +125,30 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu_dir: str | Path 
         "engine": "fast", "rtol": s.ref_rtol, "horizon_s": float(refs[REGIMES[0]]["time"][-1]),
         "dt": s.dt, "cross_check": checks}
     rows = engine_rows(s, refs, progress)
-    plain, plain_checks, note = plain_rows(s, refs, progress)
+    plain, plain_checks = plain_rows(s, refs, progress)
     rows.extend(plain)
     checks.extend(plain_checks)
-    result["plain_scipy"] = {"script": "benchmarks/plain_scipy.py", "note": note}
+    result["plain_scipy"] = {"module": "gearpair.bench.plain_scipy"}
     core = core_step_costs(s, _step_rtols(rows, s.fmu_rtols))
     progress("fast core at 1e-3 s steps: done")
     result.update(work_precision=rows, core_steps=core, fmu=None, startup=None,
                   c_host=None)
     if s.fmu:
+        from ..scenes.location import find_fmu
+
         with tempfile.TemporaryDirectory(prefix="gearpair_bench_fmu_") as tmp:
             try:  # a failing FMU section is reported, the other sections still run
-                fmu, noop = build_fmus(fmu_dir or tmp, progress)
-                fm = fmu_measurements(s, refs, fmu, noop, progress)
+                gearpair_fmu = find_fmu(fmu)
+                progress(f"FMU: {gearpair_fmu}; building the no-op slave on its binary")
+                noop = build_noop(gearpair_fmu, fmu_dir or tmp)
+                result["fmu_file"] = str(gearpair_fmu)
+                fm = fmu_measurements(s, refs, gearpair_fmu, noop, progress)
                 result["fmu"] = {"steps": fm["steps"], "calls": fm["calls"]}
                 rows.extend(fm["rows"])
-                result["c_host"] = host_measurements(s, fmu, noop, Path(tmp) / "host",
-                                                     progress)
+                result["c_host"] = host_measurements(s, gearpair_fmu, noop,
+                                                     Path(tmp) / "host", progress)
                 if s.startup:
-                    result["startup"] = fmu_startup(fmu, progress,
+                    result["startup"] = fmu_startup(gearpair_fmu, progress,
                                                     compile_row=s.name != "quick")
             except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
                 result["fmu_error"] = f"{type(exc).__name__}: {exc}"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import subprocess
@@ -46,8 +47,10 @@ def memory_peak(t_end: float = 100.0, dt: float = 1e-4) -> dict:
     child process (its own high-water mark, ``VmHWM``; ``getrusage`` where there is no
     ``/proc``)."""
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(
-        [str(Path(__file__).resolve().parents[2]), *filter(None, [env.get("PYTHONPATH")])])
+    # the child imports the gearpair this process runs: the sys.path entry it came from
+    # (site-packages, or a checkout's model/ folder) goes first
+    entry = Path(importlib.util.find_spec("gearpair").origin).parent.parent
+    env["PYTHONPATH"] = os.pathsep.join([str(entry), *filter(None, [env.get("PYTHONPATH")])])
     proc = subprocess.run([sys.executable, "-c", _MEMORY_CHILD, repr(t_end), repr(dt)],
                           capture_output=True, text=True, env=env)
     if proc.returncode != 0:

@@ -116,12 +116,9 @@ def _equal_accuracy(result: dict) -> list[str]:
 
         rows = [[mm, *[cell(e, mm) for e in acc]] for mm in methods]
         rows.append(["scipy on the reference engine / fast", *[ratio(e, "") for e in acc]])
-        rows.append(["plain scipy (benchmarks/) / fast", *[ratio(e, "_plain") for e in acc]])
+        rows.append(["plain scipy / fast", *[ratio(e, "_plain") for e in acc]])
         out.append(table(["method", *[e["regime"] for e in acc]], rows))
         out.append("")
-    note = (result.get("plain_scipy") or {}).get("note")
-    if note:
-        out += [note, ""]
     return out
 
 
@@ -152,6 +149,8 @@ def _fmu(result: dict) -> list[str]:
     out: list[str] = []
     fm = result.get("fmu")
     if fm:
+        if result.get("fmu_file"):
+            out.append(f"FMU measured: {result['fmu_file']}")
         out.append(f"FMU through fmpy.simulate_fmu at a 1e-3 s step ({s['step_horizon']:g} s "
                    f"simulated, best of {s['repeats']}) against the core (per call) and the "
                    "no-op floor, "
@@ -206,13 +205,13 @@ def _c_host(result: dict) -> list[str]:
         return []
     if ch["note"]:
         return [ch["note"], ""]
-    out = [f"FMU per step in a C host (benchmarks/fmi2_bench_host.c) and in fmpy, the loop of a "
-           f"master: set {', '.join(ch['inputs'])}; doStep; get {', '.join(ch['outputs'])} "
+    out = [f"FMU per step in a C host (gearpair/bench/fmi2_bench_host.c) and in fmpy, the loop "
+           f"of a master: set {', '.join(ch['inputs'])}; doStep; get {', '.join(ch['outputs'])} "
            f"({ch['regime']} at the default point, rtol {ch['rtol']:g}, best of {ch['blocks']}"
            f" blocks of {ch['n']} steps), us per step; engine: its own work in this process "
            "(advance_values + output_values, the calls of the FMU's doStep); slave's own = C "
-           "host GearPair - no-op - engine (both FMUs on this project's C layer over "
-           "pythonfmu's library):"]
+           "host GearPair - no-op - engine (both on GearPair.fmu's binary, this project's C "
+           "layer over pythonfmu's library):"]
     for clk, what in (("", "wall"), ("_cpu", "CPU")):
         out.append(table(
             ["step s", f"C GearPair {what}", "C no-op", "fmpy GearPair", "fmpy no-op",
@@ -269,7 +268,9 @@ def _cost(result: dict) -> list[str]:
     """Cost of the shipped scenes and the effect ladder."""
     out: list[str] = []
     cost = result.get("cost")
-    if cost:
+    if cost and cost.get("scenes_note"):
+        out += [cost["scenes_note"], ""]
+    elif cost:
         out.append(f"Cost of the shipped scenes (fast engine, first {cost['t_end']:g} s, "
                    "their own step and rtol):")
         out.append(table(["scene", "simulated s", "step s", "dof", "stiffness", "friction",
@@ -280,6 +281,7 @@ def _cost(result: dict) -> list[str]:
                            _fmt(r["cpu_per_sim_s"])] for r in cost["scenes"]]))
         out += [f"  {r['scene']} failed: {r['error']}" for r in cost["scenes"] if r["error"]]
         out.append("")
+    if cost:
         out.append(f"Effect ladder (fast engine, rtol {cost['rtol']:g}, 3900 N.m, 100 r/min, "
                    f"{cost['t_end']:g} s simulated), s/s and ratio to stick-slip:")
         heads, cols = ["rung"], []

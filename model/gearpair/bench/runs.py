@@ -19,7 +19,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .settings import FRICTION_OF, ROOT
+from .settings import FRICTION_OF
+
+PACKAGE = Path(__file__).resolve().parents[1]  # this gearpair package
 
 
 # -- machine ------------------------------------------------------------------------------------
@@ -53,17 +55,7 @@ def machine_info() -> dict:
         usable = len(os.sched_getaffinity(0))
     except AttributeError:
         usable = os.cpu_count()
-    commit = None
-    try:
-        rev = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-                             capture_output=True, text=True, timeout=10)
-        if rev.returncode == 0:
-            dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain",
-                                    "--untracked-files=no"], capture_output=True, text=True,
-                                   timeout=10).stdout.strip()
-            commit = rev.stdout.strip() + (" + uncommitted changes" if dirty else "")
-    except (OSError, subprocess.SubprocessError):
-        pass
+    commit = _commit()
     return {
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "cpu": cpu, "cores": os.cpu_count(), "usable_cores": usable, "memory_gb": mem_gb,
@@ -71,8 +63,28 @@ def machine_info() -> dict:
         else None,
         "os": platform.platform(), "python": platform.python_version(),
         "numpy": np.__version__, "scipy": _version("scipy"), "numba": _version("numba"),
-        "fmpy": _version("fmpy"), "pythonfmu": _version("pythonfmu"), "commit": commit,
+        "fmpy": _version("fmpy"), "pythonfmu": _version("pythonfmu"),
+        "gearpair": _version("gearpair"), "commit": commit,
     }
+
+
+def _commit() -> str | None:
+    """The git commit of the work tree that holds this package's files (a checkout), with
+    `` + uncommitted changes`` when they differ from it; None for an installed package."""
+    def git(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["git", "-C", str(PACKAGE), *args], capture_output=True,
+                              text=True, timeout=10)
+
+    try:
+        if git("ls-files", "--error-unmatch", "__init__.py").returncode != 0:
+            return None  # not a file of a work tree (an installed package)
+        rev = git("rev-parse", "--short", "HEAD")
+        if rev.returncode != 0:
+            return None
+        dirty = git("status", "--porcelain", "--untracked-files=no").stdout.strip()
+        return rev.stdout.strip() + (" + uncommitted changes" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return None
 
 
 # -- runs and errors ------------------------------------------------------------------------------

@@ -6,12 +6,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[3]  # repository root (build_fmu.py, examples/)
-NOOP_SCRIPT = ROOT / "examples" / "bench_noop" / "GearPairNoop.py"
-SCENES_DIR = ROOT / "examples" / "scenes"
-# the plain scipy implementation a user would write: in the repository, not in the package
-PLAIN_SCRIPT = ROOT / "benchmarks" / "plain_scipy.py"
-HOST_SOURCE = ROOT / "benchmarks" / "fmi2_bench_host.c"  # the C timing host
+HERE = Path(__file__).resolve().parent  # gearpair/bench: its files ship with the package
+NOOP_SCRIPT = HERE / "GearPairNoop.py"  # the do-nothing slave of the plumbing floor
+HOST_SOURCE = HERE / "fmi2_bench_host.c"  # the C timing host
+# the example scenes whose cost the bench times (Settings.scenes_dir): a folder of the
+# current directory, where a checkout has them
+SCENES_DIR = "examples/scenes"
 PLAIN_PREFIX = "plain "  # method names of its rows: "plain DOP853", ...
 
 REGIMES = ("no_friction", "sliding", "stick_slip")
@@ -62,7 +62,7 @@ class Settings:
         (rows ``fast dp5``, on the common grid), to show what the choice of method buys
     scipy_rtols : per scipy method, its tolerances (run as the reference engine)
     plain_rtols : per scipy method, the tolerances of the plain scipy implementation
-        (benchmarks/plain_scipy.py, rows ``plain <method>``, over ``horizon``)
+        (`gearpair.bench.plain_scipy`, rows ``plain <method>``, over ``horizon``)
     run_budget : wall-time limit (s) of one engine run of the work-precision table; a run
         that exceeds it is reported as failed
     ref_rtol : tolerance of the reference (fast core)
@@ -78,6 +78,9 @@ class Settings:
     host_n, host_blocks : steps per timed block and blocks (the best block counts)
     repeats : timed runs of the cheap measurements (the best counts)
     cost_t_end : simulated time of each scene and ladder run
+    scenes_dir : the folder of scenes (``*.toml``) whose cost is timed, relative to the
+        current directory: the repository's ``examples/scenes``; without it the scene rows
+        are skipped with a note
     ladder_repeats : rounds of the effect ladder (each runs every rung once; the best of
         each rung counts). A round costs about half a second, and neighbouring rungs differ
         by a few per cent, so it takes more rounds than ``repeats`` to rank them
@@ -114,6 +117,7 @@ class Settings:
     host_blocks: int = 3
     repeats: int = 3
     cost_t_end: float = 0.3
+    scenes_dir: str = SCENES_DIR
     ladder_repeats: int = 9
     startup: bool = True
     memory: bool = False

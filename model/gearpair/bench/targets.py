@@ -41,11 +41,8 @@ def targets(result: dict) -> list[dict]:
     time (steadier on a shared machine), whether it is met and by what factor it is not."""
     out = []
     for kind, whose in (("", "scipy on the reference engine"),
-                        ("_plain", "plain scipy, benchmarks/")):
+                        ("_plain", "plain scipy")):
         for e in result["equal_accuracy"]:
-            if kind and e.get("ratio_plain") is None and (result.get("plain_scipy") or {}).get(
-                    "note"):
-                continue  # no plain rows (installed package): the report says why
             what = (f"fast core >= {TARGET_SPEEDUP:g} x the fastest scipy method ({whose}) at "
                     f"DTE error <= {TARGET_ERROR:g} ({e['regime']}; x)")
             out.append(_target(what, e["ratio" + kind], e["ratio" + kind + "_cpu"],

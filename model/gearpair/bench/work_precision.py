@@ -135,7 +135,7 @@ def equal_accuracy(rows: list[dict], target: float = TARGET_ERROR) -> list[dict]
     over the common window and over its whole run (None: not reached), and the ratios to
     the fast core of the fastest scipy method run as the reference engine (``ratio``,
     ``fastest_scipy``) and of the fastest plain scipy implementation (``ratio_plain``,
-    ``fastest_plain``: benchmarks/plain_scipy.py, what a user would write). The keys ending
+    ``fastest_plain``: `gearpair.bench.plain_scipy`, what a user would write). The keys ending
     in ``_cpu`` are the same comparison in CPU time (each method's cheapest row by CPU
     time)."""
     out = []

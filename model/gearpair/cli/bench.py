@@ -9,6 +9,7 @@ import math
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 from .common import check_figure_format
 
@@ -31,7 +32,13 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "matplotlib)")
     p.add_argument("--memory", action="store_true", help="also measure the peak RSS of a "
                    "100 s run (slow; included in --full)")
+    p.add_argument("--fmu", metavar="PATH", help="the GearPair FMU to measure; default "
+                   "$GEARPAIR_FMU, else dist/GearPair.fmu of the current folder (where "
+                   "build_fmu.py writes it), rebuilt when stale")
     p.add_argument("--no-fmu", action="store_true", help="skip the FMU sections")
+    p.add_argument("--scenes", metavar="DIR", help="the folder of scenes (*.toml) whose cost "
+                   "is timed; default examples/scenes of the current folder (the repository's "
+                   "examples), skipped with a note when there is none")
     p.add_argument("--no-startup", action="store_true", help="skip the FMU first-start "
                    "measurements (empty and warm caches)")
     p.add_argument("--step-horizon", type=float, metavar="S", help="simulated time of the "
@@ -53,6 +60,10 @@ def settings_from(args: argparse.Namespace):
         s = replace(s, fmu=False)
     if args.no_startup:
         s = replace(s, startup=False)
+    if args.scenes is not None:
+        if not Path(args.scenes).is_dir():
+            raise ValueError(f"--scenes {args.scenes}: no such folder")
+        s = replace(s, scenes_dir=args.scenes)
     if args.step_horizon is not None:
         if not (math.isfinite(args.step_horizon) and 0.0 < args.step_horizon <= 100.0):
             raise ValueError(f"--step-horizon = {args.step_horizon!r} must be in (0, 100] s")
@@ -68,6 +79,14 @@ def run(args: argparse.Namespace) -> int:
 
         check_writable("--plot", args.plot)
         check_figure_format("--plot", args.plot)
+    if s.fmu:  # the FMU is there (SceneError: how to build or pass it), before the minutes
+        from ..scenes import SceneError
+        from ..scenes.location import locate_fmu
+
+        try:
+            locate_fmu(args.fmu)
+        except SceneError as exc:
+            raise SceneError(f"{exc}; or --no-fmu to skip the FMU sections") from None
     t0 = time.perf_counter()
 
     def progress(msg: str) -> None:
@@ -76,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import bench  # the package's `run`, which tests may replace
     from ..bench.report import jsonable, report
 
-    result = bench.run(s, progress)
+    result = bench.run(s, progress, fmu=args.fmu)
     if args.plot:
         try:
             from ..bench.plot import plot

@@ -1,15 +1,16 @@
 """A pythonfmu slave that does nothing, with GearPair's variables.
 
-`gearpair bench` copies this script into a temporary folder next to ``interface.json``
-(name, type, causality, start value and description of every variable of the GearPair.fmu
-it just built), builds it with pythonfmu, gives its binary the same C layer as GearPair.fmu
-(``build_fmu.add_c_layer``) and drives it with exactly the calls it uses on GearPair.fmu.
-Its cost is the plumbing floor that no work in the engine can remove. Like GearPair it hands
-the C layer a step block and a compiled step (one that does nothing) when ``stepblock.py``
-(the block's layout, copied beside it by the bench) and numba are there and
-GEARPAIR_NATIVE_STEP is not 0: the floor is then the C layer's own cost per call; otherwise
-every call goes through pythonfmu into Python. Without ``interface.json`` it has only the
-two inputs.
+`gearpair bench` (`gearpair.bench.fmu.build_noop`) copies this script into a temporary folder
+next to ``interface.json`` (name, type, causality, start value and description of every
+variable of the GearPair.fmu it measures, in value-reference order), builds it with
+pythonfmu, runs it on GearPair.fmu's own binary (its C layer and pythonfmu's library, with
+its GUID) and drives it with exactly the calls it uses on GearPair.fmu. Its cost is the
+plumbing floor that no work in the engine can remove. Like GearPair it hands the C layer a
+step block and a compiled step (one that does nothing) when ``stepblock.py`` (the block's
+layout, copied beside it by the bench) and numba are there and GEARPAIR_NATIVE_STEP is not
+0: the floor is then the C layer's own cost per call; otherwise every call goes through
+pythonfmu into Python. Without ``interface.json`` it has only the two inputs. It ships in
+the package as a file for pythonfmu to build; nothing imports it.
 """
 
 from __future__ import annotations

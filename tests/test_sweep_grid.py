@@ -370,6 +370,31 @@ def test_progress_on_a_terminal_and_quiet(tmp_path):
     assert quiet.getvalue() == ""
 
 
+def test_recorded_effects_resume_as_settings_and_an_unknown_one_is_refused(tmp_path):
+    """A store records each effect as a setting by its `Effects` name: one it lacks (an
+    effect added since) takes the default and resumes; one this gearpair has not (an effect
+    since renamed) is refused naming it, not a traceback."""
+    from gearpair.sweep.store import StoreError
+
+    g = Grid.parse(["mu=0.01,0.02"])
+    path = tmp_path / "e.zarr"
+    Store.open_or_create(path, g, QUICK.replace(friction="nominal")).close()
+    meta = path / "zarr.json"
+    doc = json.loads(meta.read_text())
+    recorded = doc["attributes"]["settings"]
+    assert recorded["friction"] == "nominal" and recorded["backlash"] is None
+    del recorded["backlash"]  # as if written before backlash existed
+    meta.write_text(json.dumps(doc))
+    st = Store.open_or_create(path, g, QUICK.replace(friction="nominal"))
+    assert st.settings.backlash is None and st.settings.effects().friction == "nominal"
+    st.close()
+    recorded["gear_backlash"] = 1e-4  # a setting this gearpair has not
+    meta.write_text(json.dumps(doc))
+    with pytest.raises(StoreError, match=r"gear_backlash = 0\.0001 in the store, no such "
+                       "setting now"):
+        Store.open_or_create(path, g, QUICK.replace(friction="nominal"))
+
+
 def test_a_store_being_written_is_refused_to_a_second_sweep(tmp_path, capsys):
     """Two sweeps writing one store would lose points to each other's chunk rewrites: the
     second is refused while the first holds the store (the lock goes with its process)."""

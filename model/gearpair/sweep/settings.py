@@ -8,12 +8,37 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-from ..effects import Effects, StiffnessSpec
+from ..effects import OPTIONS, Effects, StiffnessSpec
 from ..params import RPM, GearParams, OperatingPoint, check_range
 
 # Inputs that are not GearParams fields, with their units.
 INPUTS = {"speed_rpm": "r/min", "torque": "N.m"}
 _FX = Effects().values()  # the effects' defaults (the stiffness as its kind)
+_HELD_TYPE = {"choice": "str", "bool": "bool", "number": "float"}
+
+
+def _holding_effects(cls: type) -> type:
+    """Give ``cls`` (a class about to become a dataclass) one field per `Effects` field, after
+    its ``params``: the effect's default (the stiffness as its kind) and a type from its
+    metadata (`gearpair.effects.OPTIONS`). The effects are declared once, in
+    `gearpair.effects`: a new effect is a setting of every sweep with no edit here, and its
+    value is read, stored and compared like any other setting (the store's resume check
+    names it)."""
+    own = dict(cls.__dict__.get("__annotations__", {}))
+    clash = set(own) & set(OPTIONS)
+    if clash or "params" not in own:
+        raise TypeError(f"{cls.__name__}: effect fields {sorted(clash)} declared by hand, or "
+                        "no params field to place the effects after")
+    annotations = {}
+    for name, typ in own.items():
+        annotations[name] = typ
+        if name == "params":
+            for effect, m in OPTIONS.items():
+                annotations[effect] = _HELD_TYPE[m["kind"]] + (" | None" if m["none"] else "")
+                setattr(cls, effect, _FX[effect])
+    cls.__annotations__ = annotations
+    return cls
+
 
 def sweepable() -> dict[str, str]:
     """Names that can be swept, with their units: the inputs and every `GearParams` field."""
@@ -24,6 +49,7 @@ def sweepable() -> dict[str, str]:
 
 
 @dataclass(frozen=True)
+@_holding_effects
 class SweepSettings:
     """Everything a sweep point needs besides the swept value (picklable, sent to workers).
 
@@ -32,10 +58,10 @@ class SweepSettings:
     torque : N.m, driving torque when not swept
     speed_rpm : r/min, speed of gear 1 when not swept
     params : `GearParams` fields changed from Table 1, as ``((name, value), ...)``
-    stiffness, separation, friction, v_eps, sliding, stick_tie, backlash, dof, mu_static,
-        stribeck_velocity : the `Effects`, one field each (the stiffness as its kind;
-        ``friction = "nominal"`` is the traditional slip model, ``"stick_slip"`` the paper's
-        model); `effects` makes them one `Effects`
+    (one field per `Effects` field, added from `gearpair.effects.OPTIONS`) : the effects of
+        every point, with the `Effects` defaults (the stiffness as its kind; ``friction =
+        "nominal"`` is the traditional slip model, ``"stick_slip"`` the paper's model);
+        `effects` makes them one `Effects`
     rtol : relative tolerance of the fast engine
     steps_per_period : engine steps per mesh period (the DTE and mesh force statistics and
         the spectrum use these samples; the ratios do not depend on them)
@@ -56,16 +82,7 @@ class SweepSettings:
     torque: float = 3900.0
     speed_rpm: float = 100.0
     params: tuple[tuple[str, float], ...] = ()
-    friction: str = _FX["friction"]
-    stick_tie: str = _FX["stick_tie"]
-    sliding: str = _FX["sliding"]
-    stiffness: str = _FX["stiffness"]
-    separation: bool = _FX["separation"]
-    v_eps: float = _FX["v_eps"]
-    backlash: float | None = _FX["backlash"]
-    dof: str = _FX["dof"]
-    mu_static: float | None = _FX["mu_static"]
-    stribeck_velocity: float | None = _FX["stribeck_velocity"]
+    # here: one field per effect (`_holding_effects`)
     rtol: float = 1e-7
     steps_per_period: int = 8
     transient_periods: int = 100
@@ -93,7 +110,7 @@ class SweepSettings:
 
     def effects(self) -> Effects:
         """The `Effects` of every point (raises ``ValueError`` for a refused combination)."""
-        kw = {name: getattr(self, name) for name in _FX}
+        kw = {name: getattr(self, name) for name in OPTIONS}
         kw["stiffness"] = StiffnessSpec(kind=self.stiffness)
         return Effects(**kw)
 

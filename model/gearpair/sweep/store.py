@@ -146,9 +146,18 @@ def _settings_json(settings: SweepSettings) -> dict[str, Any]:
     return d
 
 
-def _settings_from_json(d: dict[str, Any]) -> SweepSettings:
+def _settings_from_json(d: dict[str, Any], path: Path) -> SweepSettings:
+    """The settings a store recorded. One this gearpair has not (e.g. an effect since
+    renamed) is refused naming it; one the store lacks (an effect added since) takes its
+    default, which the resume check then compares like any other."""
     d = dict(d)
     d["params"] = tuple(tuple(p) for p in d.get("params", ()))
+    unknown = sorted(set(d) - {f.name for f in fields(SweepSettings)})
+    if unknown:
+        raise StoreError(f"store {path} holds another sweep: "
+                         + "; ".join(f"{k} = {d[k]!r} in the store, no such setting now"
+                                     for k in unknown)
+                         + " (--new-store replaces it, or give another --store)")
     return SweepSettings(**d)
 
 
@@ -219,7 +228,7 @@ class Store:
         lock = _lock(path) if mode == "r+" else None
         group = zarr.open_group(path, mode=mode, zarr_format=3)
         grid = Grid.from_json(attrs["grid"])
-        settings = _settings_from_json(attrs["settings"])
+        settings = _settings_from_json(attrs["settings"], path)
         store = cls(path, group, grid, settings)
         store._lock = lock  # held while this object lives (and released when the process dies)
         return store

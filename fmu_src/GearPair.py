@@ -314,20 +314,11 @@ def choices(spec: list[dict]) -> dict[str, tuple[str, tuple[str, ...]]]:
 
 def _combination_error(effects_mod, values: dict) -> str | None:
     """The first combination the model refuses (`gearpair.effects.RULES`), said in the FMU's
-    names and codes (``values``: Effects field -> value, decoded), or None."""
-    meta = effects_mod.OPTIONS
-
-    def say(name: str, value) -> str:
-        m = meta[name]
-        if m["kind"] == "choice":
-            return f"{m['fmu']} = {m['fmu_choices'].index(value)} ({value})"
-        if m["kind"] == "bool":
-            return f"{m['fmu']} = {'true' if value else 'false'}"
-        return f"{m['fmu']} = {value:g}" + ("" if m["unit"] == "1" else f" {m['unit']}")
-
+    names and codes (``values``: Effects field -> value, decoded; `say_fmu`, which also
+    writes the codes in the parameters' descriptions), or None."""
     for rule in effects_mod.RULES:
         if rule.refuses(values):
-            return rule.message(values, say)
+            return rule.message(values, effects_mod.say_fmu)
     return None
 
 

@@ -112,3 +112,30 @@ def test_effect_values_and_codes_the_docs_name_are_allowed():
         else:
             check_option(name, value, m)
     assert seen >= 20, seen
+
+
+def test_fmu_descriptions_write_every_code_with_its_choice():
+    """An FMU parameter's description that names a coded value (its own or another's) writes
+    it as `fmu_parameter = code (choice)`, generated from the declaration
+    (`effects.say_fmu`), so the test above checks it in docs/fmu.md's table: no bare code,
+    no `{field=value}` reference left unsaid."""
+    coded = {m["fmu"]: m for m in OPTIONS.values() if m["kind"] == "choice"}
+    names = "|".join(coded)
+    for name, m in OPTIONS.items():
+        doc = m["fmu_doc"]
+        assert not re.search(r"\{\w+=", doc), (name, doc)
+        for hit in re.finditer(rf"\b({names})\b(\W{{0,3}})(\d+)(?: \((\w+)\))?", doc):
+            fmu, sep, code, word = hit.groups()
+            assert sep == " = " and word == coded[fmu]["fmu_choices"][int(code)], \
+                (name, hit[0])
+
+
+def test_a_description_naming_a_value_the_declaration_lacks_fails():
+    from gearpair.effects import _fmu_words
+
+    assert _fmu_words("with {friction=stick_slip}, {separation=true}") == \
+        "with friction_law = 3 (stick_slip), separation = true"
+    with pytest.raises(ValueError, match="friction"):
+        _fmu_words("{friction=stick}")
+    with pytest.raises(KeyError):
+        _fmu_words("{frictions=off}")

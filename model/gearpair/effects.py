@@ -8,6 +8,7 @@ stick bookkeeping at all.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, fields
 from typing import Any, Literal
 
@@ -51,7 +52,10 @@ def _option(doc: str, *, fmu: str, fmu_doc: str, off: Any = VARIANT, choices=Non
     excluded); ``none``: what None means when it is allowed (e.g. "no back flank");
     ``zero_off``: 0 means None too; ``fmu``: the FMU parameter's name, ``fmu_doc`` its
     description, ``fmu_choices`` the choices it can code (default ``choices``; the code is
-    the index), ``display_unit`` its display unit. An FMU parameter has no None: 0 codes it
+    the index), ``display_unit`` its display unit. ``fmu_doc`` names another option's value
+    as ``{field=value}`` (``{friction=stick_slip}``, ``{separation=true}``), which `OPTIONS`
+    writes in the FMU's words with the code and its choice (`say_fmu`: ``friction_law = 3
+    (stick_slip)``), so no code is typed by hand. An FMU parameter has no None: 0 codes it
     (and a value 0 means None: one representation, so equal effects compare equal).
     """
     kind = "choice" if choices else "bool" if unit is None else "number"
@@ -88,6 +92,31 @@ class Rule:
         name, allowed = self.needs
         return (" with ".join(say(n, values[n]) for n, _ in self.given) + " needs "
                 + " or ".join(say(name, a) for a in allowed) + ": " + self.why)
+
+
+def say_fmu(name: str, value: Any) -> str:
+    """An `Effects` assignment in the FMU's names and codes (``friction_law = 3
+    (stick_slip)``, ``separation = true``, ``backlash = 0.0001 m``)."""
+    m = OPTIONS[name]
+    if m["kind"] == "choice":
+        return f"{m['fmu']} = {m['fmu_choices'].index(value)} ({value})"
+    if m["kind"] == "bool":
+        return f"{m['fmu']} = {'true' if value else 'false'}"
+    return f"{m['fmu']} = {value:g}" + ("" if m["unit"] == "1" else f" {m['unit']}")
+
+
+def _fmu_words(text: str) -> str:
+    """``text`` (an ``fmu_doc``) with each ``{field=value}`` said by `say_fmu`; a field or
+    value the declaration does not have raises at import."""
+    def one(ref: re.Match) -> str:
+        name, raw = ref.group(1), ref.group(2)
+        m = OPTIONS[name]
+        value = {"true": True, "false": False}[raw] if m["kind"] == "bool" else \
+            raw if m["kind"] == "choice" else float(raw)
+        check_option(name, value, m)
+        return say_fmu(name, value)
+
+    return re.sub(r"\{(\w+)=([\w.+-]+)\}", one, text)
 
 
 def say_effect(name: str, value: Any) -> str:
@@ -201,7 +230,7 @@ class Effects:
         fmu_doc="tooth friction law"))
     v_eps: float = field(default=1e-4, metadata=_option(
         "regularization velocity of `regularized`", unit="m/s", lo=1e-9, hi=1.0, fmu="v_eps",
-        fmu_doc="regularization velocity of friction_law = 2 (regularized), tanh(v/v_eps)"))
+        fmu_doc="regularization velocity of {friction=regularized}, tanh(v/v_eps)"))
     sliding: Sliding = field(default="paper", metadata=_option(
         "sliding velocity: Eq. (12), or with the rotational vibration too", choices=_SLIDING,
         off="paper", fmu="sliding",
@@ -217,11 +246,11 @@ class Effects:
         display_unit="um",
         fmu_doc="clearance between drive and back flanks along the line of action; 0: no back "
         "flank (the paper). > 0 catches torque reversal on the back flanks (needs "
-        "separation true)"))
+        "{separation=true})"))
     dof: Dof = field(default="full", metadata=_option(
         "`torsional`: rigid supports, only the two rotations", choices=_DOF, off="full",
         fmu="dof", fmu_doc="degrees of freedom: the 6-DOF model (full) or u1, u2 only with "
-        "rigid supports (torsional; with friction_law 3 it needs sliding 1)"))
+        "rigid supports (torsional; with {friction=stick_slip} it needs {sliding=full})"))
     mu_static: float | None = field(default=None, metadata=_option(
         "static friction coefficient, >= `mu`: bounds the static friction in the stick test "
         "of Eq. (14); `[gear] mu` stays the kinetic one. Above `mu` it needs `friction = "
@@ -230,7 +259,7 @@ class Effects:
         lo=0.0, hi=MU_STATIC_MAX, none="mu_static = mu", off=None, fmu="mu_static",
         fmu_doc="static friction coefficient bounding the static friction in the stick test "
         "of Eq. (14) (mu stays the kinetic coefficient); 0: equal to mu (the paper); "
-        "otherwise it must be >= mu, with friction_law 3 (stick_slip), or 2 (regularized) "
+        "otherwise it must be >= mu, with {friction=stick_slip}, or {friction=regularized} "
         "together with stribeck_velocity"))
     stribeck_velocity: float | None = field(default=None, metadata=_option(
         "Stribeck velocity v_s: sliding coefficient mu + (mu_static - mu) exp(-(v/v_s)²), "
@@ -238,7 +267,8 @@ class Effects:
         lo_open=True, none="no Stribeck decay", zero_off=True, off=None,
         fmu="stribeck_velocity",
         fmu_doc="Stribeck velocity v_s: the sliding coefficient is mu + (mu_static - mu) "
-        "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with friction_law 2 or 3"))
+        "exp(-(|v|/v_s)^2); 0: off (sliding at mu); with {friction=regularized} or "
+        "{friction=stick_slip}"))
 
     def __post_init__(self) -> None:
         if isinstance(self.stiffness, str):  # convenience: Effects(stiffness="constant")
@@ -296,6 +326,9 @@ def allowed(meta: dict) -> str:
 
 
 OPTIONS: dict[str, dict] = {f.name: dict(f.metadata) for f in fields(Effects)}
+for _m in OPTIONS.values():  # the FMU codes other options' values by: generated, not typed
+    _m["fmu_doc"] = _fmu_words(_m["fmu_doc"])
+del _m
 # The combinations the model refuses, checked by `Effects` and said in the FMU's words by the
 # FMU (fmu_src/GearPair.py) from the same rules.
 RULES = (

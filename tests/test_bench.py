@@ -144,17 +144,14 @@ def test_c_host_rows(quick):
         for clk in ("", "_cpu"):
             for key in ("c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine"):
                 assert r[f"{key}{clk}_us"] > 0, (key, r)
-            assert np.isfinite(r[f"c_slave_own{clk}_us"]), r
-            assert r[f"c_slave_own{clk}_us"] == pytest.approx(
-                r[f"c_gearpair{clk}_us"] - r[f"c_noop{clk}_us"] - r[f"engine{clk}_us"])
-            assert r[f"c_beyond_engine{clk}_us"] == pytest.approx(
-                r[f"c_gearpair{clk}_us"] - r[f"engine{clk}_us"])
+            # the no-op is the C layer alone: it costs less than GearPair's step
+            assert r[f"c_noop{clk}_us"] < r[f"c_gearpair{clk}_us"], r
         assert r["c_per_sim_s"] == pytest.approx(r["c_gearpair_us"] * 1e-6 / r["step"])
         # the no-op slave exits cleanly; GearPair's exit status is reported, not required
         assert r["exit_status"]["noop"] == 0 and "gearpair" in r["exit_status"]
     text = bench.report(quick)
-    assert "C host" in text and "slave's own" in text
-    assert any("slave's own work" in t["target"] for t in quick["targets"])
+    assert "C host" in text and "C layer" in text
+    assert any("C layer's own cost" in t["target"] for t in quick["targets"])
 
 
 @pytest.mark.skipif(not HAS_FMU or shutil.which("gcc") is None, reason="pythonfmu/fmpy/gcc")

@@ -6,9 +6,9 @@ master runs, ``fmi2SetReal`` of 2 inputs, ``fmi2DoStep``, ``fmi2GetReal`` of 4 o
 GearPair and on the no-op slave (run on GearPair's own binary, its C layer over pythonfmu's
 library) at
 1e-4 s and 1e-3 s communication steps; fmpy runs the same loop in a Python process, and the
-engine's own work at the same step (``advance_values`` + ``output_values``, the calls of
-the FMU's doStep) is timed in this process over the same model-time windows, so that the
-slave's own work per step (GearPair - no-op - engine) follows. The host also times the
+engine's own work at the same step (``advance_values`` + ``output_values``: the same
+compiled step, called from Python) is timed in this process over the same model-time
+windows. The no-op slave is the C layer's own cost per step. The host also times the
 first start (instantiate, initialize, first step) with empty caches (fresh
 ``NUMBA_CACHE_DIR`` and ``XDG_CACHE_HOME``: the FMU loads the compiled code it ships) and
 again with the caches it filled.
@@ -45,9 +45,9 @@ THREAD_MODES = ("main", "worker", "pair", "serial")
 def build_host(workdir: Path) -> tuple[dict | None, str | None]:
     """Compile the timing host; (host, None) or (None, why the section is skipped).
 
-    ``host`` holds the executable and the environment a pythonfmu FMU needs in a non-Python
-    process: ``LD_PRELOAD`` of this Python's shared libpython, ``PYTHONPATH`` of its
-    site-packages (numpy, scipy, numba)."""
+    ``host`` holds the executable and the environment variables it adds: none. The FMU
+    finds the Python that built it by itself (docs/hosts.md), as in any C master, so the
+    host runs as a user's would; the FMU needs that Python's shared libpython."""
     gcc = shutil.which("gcc")
     if gcc is None:
         return None, "C host rows skipped: gcc not found"
@@ -60,15 +60,14 @@ def build_host(workdir: Path) -> tuple[dict | None, str | None]:
     libpython = Path(sysconfig.get_config_var("LIBDIR") or "") / lib
     if not (lib.endswith(".so") or ".so." in lib) or not libpython.is_file():
         return None, (f"C host rows skipped: this Python has no shared libpython ({lib!r}), "
-                      "which a pythonfmu FMU needs in a C host")
+                      "which the FMU loads in a C host")
     exe = Path(workdir) / "fmi2_bench_host"
     proc = subprocess.run([gcc, "-O2", "-std=c99", f"-I{headers}", "-o", str(exe),
                            str(HOST_SOURCE), "-ldl", "-lpthread"], capture_output=True,
                           text=True)
     if proc.returncode != 0:
         return None, f"C host rows skipped: gcc failed: {proc.stderr.strip()[-500:]}"
-    env = {"LD_PRELOAD": str(libpython), "PYTHONPATH": sysconfig.get_paths()["purelib"]}
-    return {"exe": str(exe), "env": env}, None
+    return {"exe": str(exe), "env": {}}, None
 
 
 def extract(fmu: str | Path, dest: Path) -> dict:
@@ -186,13 +185,6 @@ def host_measurements(s: Settings, fmu: Path, noop: Path, workdir: str | Path,
                 b = times.index(min(times))
                 row[f"engine{clk}_us"] = 1e6 * took[b][i]
                 row[f"engine{clk}_block"] = b
-            for clk in ("", "_cpu"):
-                # beyond the engine: the plumbing and the slave's own work together; the
-                # no-op slave on the same binary is the plumbing
-                row[f"c_beyond_engine{clk}_us"] = row[f"c_gearpair{clk}_us"] \
-                    - row[f"engine{clk}_us"]
-                row[f"c_slave_own{clk}_us"] = row[f"c_beyond_engine{clk}_us"] \
-                    - row[f"c_noop{clk}_us"]
             row["c_per_sim_s"] = row["c_gearpair_us"] * 1e-6 / h
         except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
             row["error"] = f"{type(exc).__name__}: {exc}"

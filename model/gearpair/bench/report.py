@@ -208,19 +208,18 @@ def _c_host(result: dict) -> list[str]:
     out = [f"FMU per step in a C host (gearpair/bench/fmi2_bench_host.c) and in fmpy, the loop "
            f"of a master: set {', '.join(ch['inputs'])}; doStep; get {', '.join(ch['outputs'])} "
            f"({ch['regime']} at the default point, rtol {ch['rtol']:g}, best of {ch['blocks']}"
-           f" blocks of {ch['n']} steps), us per step; engine: its own work in this process "
-           "(advance_values + output_values, the calls of the FMU's doStep); slave's own = C "
-           "host GearPair - no-op - engine (both on GearPair.fmu's binary, this project's C "
-           "layer over pythonfmu's library):"]
+           f" blocks of {ch['n']} steps), us per step; no-op: the same binary (this project's "
+           "C layer over pythonfmu's library) with a slave that computes nothing, the C "
+           "layer's own cost; engine: the same compiled step called from Python in this "
+           "process (advance_values + output_values), over GearPair's best block:"]
     for clk, what in (("", "wall"), ("_cpu", "CPU")):
         out.append(table(
             ["step s", f"C GearPair {what}", "C no-op", "fmpy GearPair", "fmpy no-op",
-             "engine", "C GearPair - engine", "slave's own (C)", "C host s/s"],
-            [[_fmt(r["step"]), *[_fmt(r.get(f"{k}{clk}_us"), ".1f") for k in (
-                "c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine",
-                "c_beyond_engine", "c_slave_own")],
+             "engine (Python)", "C host s/s"],
+            [[_fmt(r["step"]), *[_fmt(r.get(f"{k}{clk}_us"), ".2f") for k in (
+                "c_gearpair", "c_noop", "fmpy_gearpair", "fmpy_noop", "engine")],
               _fmt(r.get("c_per_sim_s")) if not clk else "-"]
-             if not r["error"] else [_fmt(r["step"]), "failed", *["-"] * 7]
+             if not r["error"] else [_fmt(r["step"]), "failed", *["-"] * 5]
              for r in ch["steps"]]))
     out += [f"  step {r['step']:g} failed: {r['error']}" for r in ch["steps"] if r["error"]]
     status = {k: v for r in ch["steps"] for k, v in r.get("exit_status", {}).items()}

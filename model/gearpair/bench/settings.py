@@ -22,7 +22,6 @@ TARGET_SPEEDUP = 50.0  # fast core against the fastest scipy method
 TARGET_FMU_FACTOR = 1.2  # FMU <= factor * core + floor at a 1e-3 s step
 TARGET_STICK_SLIP = 0.1  # s of wall time per simulated second
 TARGET_MEMORY_MB = 500.0
-TARGET_SLAVE_OWN_US = 10.0  # C host, 1e-4 s step: GearPair - no-op - engine per step
 TARGET_STEP_US = 7.0  # C host, 1e-4 s step, stick-slip rtol 1e-8: GearPair per step (native)
 TARGET_LAYER_US = 0.5  # C host: the C layer's own cost per step (the native no-op)
 TARGET_WORKER = 1.10  # C host: a worker thread's cost per step over the instantiating one's

@@ -10,7 +10,6 @@ from .settings import (
     TARGET_LAYER_US,
     TARGET_MEMORY_MB,
     TARGET_PAIR,
-    TARGET_SLAVE_OWN_US,
     TARGET_SPEEDUP,
     TARGET_STEP_US,
     TARGET_STICK_SLIP,
@@ -88,18 +87,14 @@ def targets(result: dict) -> list[dict]:
 
 
 def _host_targets(ch: dict | None) -> list[dict]:
-    """The slave's own work per step in a C host at a 1e-4 s step (GearPair -
-    no-op - engine), and the first start with empty caches."""
+    """The C host at a 1e-4 s step (GearPair per step, the C layer's own cost), by thread,
+    and the first start with empty caches."""
     if not ch or ch["note"]:
         return []
     out = []
     for r in ch["steps"]:
         if r["step"] != 1e-4:
             continue
-        what = (f"C host at 1e-4 s: slave's own work per step (GearPair - no-op - engine) "
-                f"<= {TARGET_SLAVE_OWN_US:g} us (us)")
-        out.append(_target(what, r.get("c_slave_own_us"), r.get("c_slave_own_cpu_us"),
-                           TARGET_SLAVE_OWN_US, ".1f", error=r["error"]))
         what = (f"C host at 1e-4 s: GearPair per step (native step, {ch['regime']}, rtol "
                 f"{ch['rtol']:g}) <= {TARGET_STEP_US:g} us (us)")
         out.append(_target(what, r.get("c_gearpair_us"), r.get("c_gearpair_cpu_us"),

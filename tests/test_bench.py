@@ -149,9 +149,22 @@ def test_c_host_rows(quick):
         assert r["c_per_sim_s"] == pytest.approx(r["c_gearpair_us"] * 1e-6 / r["step"])
         # the no-op slave exits cleanly; GearPair's exit status is reported, not required
         assert r["exit_status"]["noop"] == 0 and "gearpair" in r["exit_status"]
+    th = ch["threads"]
+    assert th["error"] is None and th["identical"], th
+    assert th["pair_speedup"] == pytest.approx(th["serial"]["total_s"] / th["pair"]["total_s"])
+    # two threads deliver more than one and at most two (plus timing noise)
+    assert 0.5 < th["ceiling"] < 2.3, th["ceiling"]
+    assert th["pair_over_ceiling"] == pytest.approx(th["pair_speedup"] / th["ceiling"])
+    floor = quick["c_host"]["steps"][1]["engine_us"] / 10.0
+    scaled = {t["target"].split(" <= ")[0]: t for t in quick["targets"]
+              if "/ the floor" in t["target"]}
+    (row,) = scaled.values()
+    assert float(row["measured"]) == pytest.approx(ch["steps"][0]["c_gearpair_us"] / floor,
+                                                   abs=0.006)
     text = bench.report(quick)
-    assert "C host" in text and "C layer" in text
+    assert "C host" in text and "C layer" in text and "plain arithmetic" in text
     assert any("C layer's own cost" in t["target"] for t in quick["targets"])
+    assert any("two-thread ceiling" in t["target"] for t in quick["targets"])
 
 
 @pytest.mark.skipif(not HAS_FMU or shutil.which("gcc") is None, reason="pythonfmu/fmpy/gcc")

@@ -32,7 +32,7 @@ from pathlib import Path
 
 from .fmu import _worker, fmu_start
 from .runs import NEVER, Timing, clock, regime_effects
-from .settings import HOST_SOURCE, Progress, Settings, _quiet
+from .settings import CEILING_SPIN, HOST_SOURCE, Progress, Settings, _quiet
 
 INPUTS = ("torque", "speed")
 OUTPUTS = ("dte", "mesh_force", "input_torque", "output_torque")
@@ -218,11 +218,31 @@ def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, block
                          "exit_status": got["exit_status"]}
         out["worker_over_main"] = out["worker"]["us"][0] / out["main"]["us"][0]
         out["pair_speedup"] = out["serial"]["total_s"] / out["pair"]["total_s"]
+        progress("C host: the machine's two-thread ceiling (plain arithmetic)")
+        out["ceiling"] = machine_ceiling(host)
+        out["pair_over_ceiling"] = out["pair_speedup"] / out["ceiling"]
         digests = {d for m in THREAD_MODES for d in out[m]["digests"]}
         out["identical"] = len(digests) == 1
     except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
     return out
+
+
+def machine_ceiling(host: dict, n: int = CEILING_SPIN, repeats: int = 3) -> float:
+    """What two threads of this machine deliver at best: the C host's ``--ceiling`` run
+    (the same arithmetic twice one after the other, then twice at once), serial over
+    parallel wall time, the best of ``repeats``. 2 on two free cores; less where the two
+    cores are hyperthreads of one, or shared with other work."""
+    best = 0.0
+    for _ in range(repeats):
+        proc = subprocess.run([host["exe"], "--ceiling", str(n)], capture_output=True,
+                              text=True, timeout=600.0)
+        lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+        if not lines:
+            raise RuntimeError(f"C host --ceiling printed no result (exit {proc.returncode})")
+        got = json.loads(lines[-1][len("RESULT "):])
+        best = max(best, got["serial_s"] / got["pair_s"])
+    return best
 
 
 def _fmpy_loops(s: Settings, fmu: Path, noop: Path, starts: dict,

@@ -25,11 +25,18 @@
  * threads; "serial" the same two instances one after the other in the main thread.
  * ``block_wall_s`` is the first instance's; ``total_wall_s`` spans all timed steps.
  *
+ * Machine ceiling (``fmi2_bench_host --ceiling N``): no FMU; a chain of N floating-point
+ * multiply-adds run twice one after the other in the main thread, then twice at once in two
+ * threads, printing RESULT {"ok": 1, "serial_s": ..., "pair_s": ...}. Their ratio is what
+ * two threads of this machine deliver at best (2 on two free cores; less where the cores are
+ * hyperthreads of one or shared with other guests): the yardstick of "pair".
+ *
  * Build (the FMI 2 headers ship with fmpy, in fmpy/c-code):
  *     gcc -O2 -std=c99 -I"$FMPY/c-code" -o fmi2_bench_host fmi2_bench_host.c -ldl -lpthread
  * Usage:
  *     fmi2_bench_host DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS
  *                     [-r|-i|-b VR=V]... [-t main|worker|pair|serial]
+ *     fmi2_bench_host --ceiling N
  *   DIR the extracted FMU; IN_VRS, OUT_VRS comma-separated Real value references; IN_VALUES
  *   the inputs' values (comma separated, held constant); -r / -i / -b set a Real / Integer /
  *   Boolean (0 or 1) start value before initialization (repeatable).
@@ -141,7 +148,34 @@ static void print_times(const char *key, const double *v, long n) {
     printf("]");
 }
 
+/* The arithmetic of the machine ceiling: a dependent chain, no memory traffic. */
+static void *spin(void *arg) {
+    long n = *(const long *)arg;
+    volatile double x = 1.0;
+    double y = x;
+    for (long k = 0; k < n; k++) y = y * 1.0000001 + 1e-9;
+    x = y;
+    return NULL;
+}
+
+static int ceiling(long n) {
+    pthread_t th[2];
+    double w0 = now(CLOCK_MONOTONIC);
+    spin(&n);
+    spin(&n);
+    double serial = now(CLOCK_MONOTONIC) - w0;
+    w0 = now(CLOCK_MONOTONIC);
+    for (int i = 0; i < 2; i++)
+        if (pthread_create(&th[i], NULL, spin, &n)) return fail("pthread_create", -1);
+    for (int i = 0; i < 2; i++) pthread_join(th[i], NULL);
+    printf("RESULT {\"ok\": 1, \"serial_s\": %.9g, \"pair_s\": %.9g}\n", serial,
+           now(CLOCK_MONOTONIC) - w0);
+    fflush(stdout);
+    return 0;
+}
+
 int main(int argc, char **argv) {
+    if (argc == 3 && !strcmp(argv[1], "--ceiling")) return ceiling(strtol(argv[2], NULL, 10));
     if (argc < 10) {
         fprintf(stderr, "usage: %s DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS "
                         "[-r|-i|-b VR=V]...\n", argv[0]);

@@ -8,6 +8,7 @@ import numpy as np
 
 from .chost import exit_note
 from .settings import FRICTION_OF, REGIMES, TARGET_ERROR, TARGET_FMU_FACTOR
+from .targets import host_floor
 
 
 def _fmt(x, spec: str = ".3g") -> str:
@@ -231,8 +232,7 @@ def _c_host(result: dict) -> list[str]:
     if th and th["error"]:
         out.append(f"C host thread modes failed: {th['error']}")
     elif th:
-        rows = {r["step"]: r for r in ch["steps"] if not r["error"]}
-        bulk = rows.get(1e-3, {}).get("engine_us")
+        floor = host_floor(ch)
         out.append(f"GearPair in the C host by thread ({th['step']:g} s steps, best of "
                    f"{th['blocks']} blocks of {th['n']} steps, us per step; main: the "
                    "instantiating thread; worker: another thread; pair: two instances in two "
@@ -245,9 +245,10 @@ def _c_host(result: dict) -> list[str]:
                            "same" if th["identical"] else " ".join(th[m]["digests"])]
                           for m in ("main", "worker", "pair", "serial")]))
         out.append(f"worker / main {th['worker_over_main']:.2f}; pair throughput / serial "
-                   f"{th['pair_speedup']:.2f}" + (
+                   f"{th['pair_speedup']:.2f}, against {th['ceiling']:.2f} for two threads of "
+                   "plain arithmetic on this machine" + (
                        f"; the engine's bulk cost at 1e-3 s steps per 1e-4 s simulated "
-                       f"(the floor of a 1e-4 s step): {bulk / 10:.2f} us" if bulk else ""))
+                       f"(the floor of a 1e-4 s step): {floor:.2f} us" if floor else ""))
     st = ch.get("startup")
     if st and st.get("error"):
         out.append(f"C host first start failed: {st['error']}")

@@ -152,17 +152,20 @@ def _window_mean(traj, t_from):
 def test_mean_mesh_force_is_tr_over_rb1_up_to_the_friction_torque():
     speed = 600 * RPM
     period = 2 * math.pi / (speed * P.z1)
-    t_end = 0.02 + 6 * period
-    base = dict(t_end=t_end, dt=period / 100, speed=speed, torque=TR, rtol=1e-7,
+    # the mean over whole mesh periods after the start's transient: 3 periods after 10 ms
+    # (measured: 1.3e-3 off TR/rb1 without friction, 8e-5 with it, as 1.1e-3 and 4e-4 for 6
+    # periods after 20 ms; tolerances 5e-3 and mu s1e/rb1 = 1.0e-2)
+    t_from = 0.01
+    base = dict(t_end=t_from + 3 * period, dt=period / 100, speed=speed, torque=TR, rtol=1e-7,
                 engine="reference")
     off = simulate(P, Effects(friction="off"), **base)
     fr = simulate(P, Effects(friction="nominal"), **base)
     ideal = TR / P.rb1
-    assert _window_mean(off, 0.02) == pytest.approx(ideal, rel=5e-3)
+    assert _window_mean(off, t_from) == pytest.approx(ideal, rel=5e-3)
     # friction moment on gear 1 is at most mu * F * max arm / rb1
     g = Geometry.from_params(P)
     bound = P.mu * g.s1e / P.rb1
-    assert abs(_window_mean(fr, 0.02) / ideal - 1) < bound
+    assert abs(_window_mean(fr, t_from) / ideal - 1) < bound
 
 
 @pytest.mark.parametrize("fx", [

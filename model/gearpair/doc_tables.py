@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .effects import ON, OPTIONS, RULES, VARIANT, Effects, Rule
+from .effects import ON, OPTIONS, RULES, VARIANT, Effects, Rule, fmu_code
 
 BLOCK = re.compile(r"(<!-- BEGIN (\w+)\b[^\n]*-->\n)(.*?)(<!-- END \2 -->)", re.S)
 
@@ -152,12 +152,8 @@ def fmu_range(m: dict) -> tuple[Any, Any]:
 
 
 def _say_fmu(name: str, value: Any) -> str:
-    m = OPTIONS[name]
-    if m["kind"] == "choice":
-        return f"`{m['fmu']} = {m['fmu_choices'].index(value)}` ({value})"
-    if m["kind"] == "bool":
-        return f"`{m['fmu']} = {'true' if value else 'false'}`"
-    return f"`{m['fmu']} = {value:g}`"
+    choice = f" ({value})" if OPTIONS[name]["kind"] == "choice" else ""
+    return f"`{fmu_code(name, value)}`{choice}"
 
 
 def _say_fmu_on(name: str) -> str:

@@ -94,15 +94,25 @@ class Rule:
                 + " or ".join(say(name, a) for a in allowed) + ": " + self.why)
 
 
-def say_fmu(name: str, value: Any) -> str:
-    """An `Effects` assignment in the FMU's names and codes (``friction_law = 3
-    (stick_slip)``, ``separation = true``, ``backlash = 0.0001 m``)."""
+def fmu_code(name: str, value: Any) -> str:
+    """An `Effects` assignment as the FMU parameter takes it (``friction_law = 3``,
+    ``separation = true``, ``backlash = 0.0001``): a choice is coded by its index."""
     m = OPTIONS[name]
     if m["kind"] == "choice":
-        return f"{m['fmu']} = {m['fmu_choices'].index(value)} ({value})"
+        return f"{m['fmu']} = {m['fmu_choices'].index(value)}"
     if m["kind"] == "bool":
         return f"{m['fmu']} = {'true' if value else 'false'}"
-    return f"{m['fmu']} = {value:g}" + ("" if m["unit"] == "1" else f" {m['unit']}")
+    return f"{m['fmu']} = {value:g}"
+
+
+def say_fmu(name: str, value: Any) -> str:
+    """An `Effects` assignment in the FMU's names and codes, with what a code chooses or the
+    unit (``friction_law = 3 (stick_slip)``, ``separation = true``, ``backlash = 0.0001 m``)."""
+    m = OPTIONS[name]
+    if m["kind"] == "choice":
+        return f"{fmu_code(name, value)} ({value})"
+    unit = "" if m["kind"] == "bool" or m["unit"] == "1" else f" {m['unit']}"
+    return fmu_code(name, value) + unit
 
 
 def _fmu_words(text: str) -> str:

@@ -113,6 +113,18 @@ def _where(fmu_path: str | Path | None) -> tuple[Path, str]:
     return fmu, f"in {fmu.parent} (no {ENV} set)"
 
 
+def _checked(fmu_path: str | Path | None) -> tuple[Path, str | None, Path | None]:
+    """(the FMU, its `stale_reason`, the builder that would rebuild it or None): one look
+    at the FMU's contents, shared by `locate_fmu` and `find_fmu`."""
+    fmu, where = _where(fmu_path)
+    if not fmu.is_file():
+        raise _not_found(where)
+    reason = stale_reason(fmu)
+    builder = (read_record(fmu) or {}).get("builder") if reason else None
+    usable = fmu_path is None and builder and Path(builder).is_file()
+    return fmu, reason, Path(builder) if usable else None
+
+
 def locate_fmu(fmu_path: str | Path | None = None) -> tuple[Path, str | None]:
     """The FMU `find_fmu` would run and, when it would rebuild it first, why (its
     `stale_reason`), without rebuilding or warning: e.g. to start the compile of its
@@ -123,13 +135,8 @@ def locate_fmu(fmu_path: str | Path | None = None) -> tuple[Path, str | None]:
     SceneError
         No FMU there, with how to build or pass one.
     """
-    fmu, where = _where(fmu_path)
-    if not fmu.is_file():
-        raise _not_found(where)
-    reason = stale_reason(fmu)
-    builder = (read_record(fmu) or {}).get("builder") if reason else None
-    rebuilt = fmu_path is None and reason and builder and Path(builder).is_file()
-    return fmu, reason if rebuilt else None
+    fmu, reason, builder = _checked(fmu_path)
+    return fmu, reason if builder else None
 
 
 def find_fmu(fmu_path: str | Path | None = None, rebuild_stale: bool = True) -> Path:
@@ -144,11 +151,11 @@ def find_fmu(fmu_path: str | Path | None = None, rebuild_stale: bool = True) -> 
     SceneError
         No FMU there, with how to build or pass one.
     """
-    fmu, rebuild = locate_fmu(fmu_path)
-    if rebuild and rebuild_stale:
-        print(f"gearpair: rebuilding stale {fmu}: {rebuild}", file=sys.stderr, flush=True)
-        _rebuild(fmu, Path(read_record(fmu)["builder"]))
-    reason = stale_reason(fmu)
+    fmu, reason, builder = _checked(fmu_path)
+    if reason and builder and rebuild_stale:
+        print(f"gearpair: rebuilding stale {fmu}: {reason}", file=sys.stderr, flush=True)
+        _rebuild(fmu, builder)
+        reason = stale_reason(fmu)
     if reason is None:
         return fmu
     warnings.warn(SceneWarning(f"{fmu} is stale ({reason}): it runs other physics than this "

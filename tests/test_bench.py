@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import shutil
+import statistics
 import zipfile
 from dataclasses import replace
 from pathlib import Path
@@ -151,16 +152,28 @@ def test_c_host_rows(quick):
         assert r["exit_status"]["noop"] == 0 and "gearpair" in r["exit_status"]
     th = ch["threads"]
     assert th["error"] is None and th["identical"], th
-    assert th["pair_speedup"] == pytest.approx(th["serial"]["total_s"] / th["pair"]["total_s"])
+    rounds = th["rounds"]
+    assert len(th["gain"]) == len(th["ceilings"]) == len(th["main_us"]) == rounds
+    # six instances: five at the step (one digest), the floor's on its own grid
+    assert len(th["digests"]) == 6 and th["digests"][-1] != th["digests"][0]
+    # the per-round figures agree with each other: a serial block is two main-thread blocks
+    # (the first is main's), the gain is serial over pair
+    for k in range(rounds):
+        assert th["serial_us"][k] > th["main_us"][k] / 2
+        assert th["gain"][k] == pytest.approx(th["serial_us"][k] / th["pair_us"][k])
+    assert th["pair_speedup"] == pytest.approx(statistics.median(th["gain"]))
+    assert th["worker_over_main"] == pytest.approx(statistics.median(
+        w / m for w, m in zip(th["worker_us"], th["main_us"], strict=True)))
+    assert th["step_over_floor"] == pytest.approx(statistics.median(
+        m / f for m, f in zip(th["main_us"], th["floor_us"], strict=True)))
     # two threads deliver more than one and at most two (plus timing noise)
     assert 0.5 < th["ceiling"] < 2.3, th["ceiling"]
-    assert th["pair_over_ceiling"] == pytest.approx(th["pair_speedup"] / th["ceiling"])
-    floor = quick["c_host"]["steps"][1]["engine_us"] / 10.0
+    assert th["pair_over_ceiling"] == pytest.approx(statistics.median(
+        g / c for g, c in zip(th["gain"], th["ceilings"], strict=True)))
     scaled = {t["target"].split(" <= ")[0]: t for t in quick["targets"]
               if "/ the floor" in t["target"]}
     (row,) = scaled.values()
-    assert float(row["measured"]) == pytest.approx(ch["steps"][0]["c_gearpair_us"] / floor,
-                                                   abs=0.006)
+    assert float(row["measured"]) == pytest.approx(th["step_over_floor"], abs=0.006)
     text = bench.report(quick)
     assert "C host" in text and "C layer" in text and "plain arithmetic" in text
     assert any("C layer's own cost" in t["target"] for t in quick["targets"])

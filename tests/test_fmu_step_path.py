@@ -139,7 +139,8 @@ def test_getters_fall_back_to_pythonfmu(slave_class):
 def test_two_instances_in_two_threads_of_a_c_host(fmu_path, tmp_path):
     """Two instances stepped at once from two threads of one C process (no interpreter lock
     per step) give the outputs of the same two stepped one after the other, and of one
-    instance stepped from a worker thread or the instantiating thread."""
+    instance stepped from a worker thread or the instantiating thread, also with every
+    mode interleaved round by round in one process."""
     from gearpair.bench import chost
 
     host, why = chost.build_host(tmp_path)
@@ -148,9 +149,12 @@ def test_two_instances_in_two_threads_of_a_c_host(fmu_path, tmp_path):
     unit = chost.extract(fmu_path, tmp_path / "fmu")
     start = chost.fmu_start(fmu_path, chost.REGIME, 1e-8)
     got = {m: chost.run_host(host, unit, start, 1e-4, 300, 2, threads=m)
-           for m in chost.THREAD_MODES}
+           for m in (*chost.THREAD_MODES, "interleaved")}
     digests = {m: [i["digest"] for i in g["instances"]] for m, g in got.items()}
     assert len(digests["pair"]) == len(digests["serial"]) == 2
+    # interleaved: every mode in each round; its last instance, the floor, steps 10 x 1e-4 s
+    assert len(digests["interleaved"]) == 6
+    assert digests["interleaved"].pop() != digests["main"][0]
     assert {d for ds in digests.values() for d in ds} == {digests["main"][0]}, digests
     assert all(g["exit_status"] == 0 for g in got.values())
     # the outputs moved: the digest is of a stick-slip run, not of constants

@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import statistics
 import subprocess
 import sysconfig
 import tempfile
@@ -32,7 +33,7 @@ from pathlib import Path
 
 from .fmu import _worker, fmu_start
 from .runs import NEVER, Timing, clock, regime_effects
-from .settings import CEILING_SPIN, HOST_SOURCE, Progress, Settings, _quiet
+from .settings import HOST_SOURCE, Progress, Settings, _quiet
 
 INPUTS = ("torque", "speed")
 OUTPUTS = ("dte", "mesh_force", "input_torque", "output_torque")
@@ -82,9 +83,11 @@ def extract(fmu: str | Path, dest: Path) -> dict:
 
 
 def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
-             env: dict | None = None, timeout: float = 600.0, threads: str = "main") -> dict:
+             env: dict | None = None, timeout: float = 600.0, threads: str = "main",
+             spin: int = 0) -> dict:
     """One host process: its RESULT line as a dict, with ``exit_status``; ``threads`` the
-    host's thread mode (main, worker, pair, serial: `THREAD_MODES`).
+    host's thread mode (main, worker, pair, serial: `THREAD_MODES`; or interleaved, with
+    ``spin`` multiply-adds of the machine ceiling's arithmetic per round: `host_threads`).
 
     Raises RuntimeError when the host printed no result (it failed before its loop)."""
     vr = unit["vars"]
@@ -99,7 +102,7 @@ def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: i
             continue
         value = int(bool(value)) if typ == "Boolean" else value
         args += [flag[typ], f"{ref}={value!r}"]
-    args += ["-t", threads]
+    args += ["-t", threads] + (["-c", str(spin)] if spin else [])
     child = dict(os.environ if env is None else env, **host["env"])
     child.pop("PYTHONHOME", None)
     proc = subprocess.run(args, capture_output=True, text=True, env=child, timeout=timeout)
@@ -190,59 +193,73 @@ def host_measurements(s: Settings, fmu: Path, noop: Path, workdir: str | Path,
             row["error"] = f"{type(exc).__name__}: {exc}"
         out["steps"].append(row)
     out["threads"] = host_threads(host, units["gearpair"], starts["gearpair"],
-                                  s.host_steps[0], s.host_n, s.host_blocks, progress)
+                                  s.host_steps[0], s.host_n, s.host_rounds, s.round_spin,
+                                  progress)
     if s.startup:
         out["startup"] = host_startup(host, units["gearpair"], starts["gearpair"], progress)
     return out
 
 
-def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
-                 progress: Progress = _quiet) -> dict:
-    """GearPair stepped from each thread mode of the C host (`THREAD_MODES`): per step (best
-    block, us, each instance), the wall time of all timed steps, and whether every instance
-    gave the same outputs (the host's digest of every output of every step).
+def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, rounds: int,
+                 spin: int, progress: Progress = _quiet) -> dict:
+    """GearPair stepped from every thread mode of the C host, interleaved (the host's
+    ``-t interleaved``): each round runs a block of ``n`` steps of each mode back to back,
+    so that every ratio compares times measured a fraction of a second apart in the same
+    stretch of model time. A machine whose speed drifts over seconds (a shared or
+    throttled virtual machine) otherwise makes runs of one mode after another compare
+    speeds, not modes. Per round:
 
-    ``worker_over_main``: a worker thread's cost per step over the instantiating thread's;
-    ``pair_speedup``: two instances in two threads against the same two one after the other
-    (throughput ratio, total wall times)."""
-    out: dict = {"step": step, "n": n, "blocks": blocks, "error": None}
+    - ``main_us``: per step in the thread that instantiated the instance;
+    - ``worker_us``: per step of another instance in a thread of its own, as a master's
+      thread pool steps it;
+    - ``serial_us`` / ``pair_us``: per step and instance of two instances, one after the
+      other in the main thread / at once in two threads (wall time of the pair's block);
+    - ``floor_us``: the floor of a ``step``: an instance stepping the same model time at
+      10 ``step`` (the engine's bulk cost; the C layer's own cost, well under 1 % of it
+      there, included), per ``step`` of model time (``floor_median_us``: the median);
+    - ``gain``: serial over pair, the pair's throughput gain;
+    - ``ceilings``: the machine's own two-thread gain on ``spin`` multiply-adds (a
+      dependent chain, no memory traffic: 2 on two free cores);
+
+    and the medians of the per-round ratios: ``worker_over_main``, ``step_over_floor``
+    (main over floor), ``pair_speedup`` (the pair's throughput over one after the other),
+    ``ceiling`` and ``pair_over_ceiling``. ``identical``: every instance stepping at
+    ``step`` gave the same outputs (the host's digest of every output of every step)."""
+    out: dict = {"step": step, "n": n, "rounds": rounds, "error": None}
     try:
-        for mode in THREAD_MODES:
-            progress(f"C host: GearPair at {step:g} s steps, threads {mode}")
-            got = run_host(host, unit, start, step, n, blocks, threads=mode)
-            out[mode] = {"us": [1e6 * min(i["block_wall_s"]) / n for i in got["instances"]],
-                         "cpu_us": [1e6 * min(i["block_cpu_s"]) / n
-                                    for i in got["instances"]],
-                         "total_s": got["total_wall_s"],
-                         "digests": [i["digest"] for i in got["instances"]],
-                         "exit_status": got["exit_status"]}
-        out["worker_over_main"] = out["worker"]["us"][0] / out["main"]["us"][0]
-        out["pair_speedup"] = out["serial"]["total_s"] / out["pair"]["total_s"]
-        progress("C host: the machine's two-thread ceiling (plain arithmetic)")
-        out["ceiling"] = machine_ceiling(host)
-        out["pair_over_ceiling"] = out["pair_speedup"] / out["ceiling"]
-        digests = {d for m in THREAD_MODES for d in out[m]["digests"]}
-        out["identical"] = len(digests) == 1
+        progress(f"C host: GearPair at {step:g} s steps, every thread mode, {rounds} rounds")
+        got = run_host(host, unit, start, step, n, rounds, threads="interleaved", spin=spin)
+        r = got["rounds"]
+        # per step (and instance: serial and pair blocks hold two instances' n steps)
+        per = {f"{k}_us": [1e6 * v / (n * (2 if k in ("serial", "pair") else 1))
+                           for v in r[f"{k}_s"]]
+               for k in ("main", "worker", "serial", "pair", "floor")}
+        gain = _ratios(r["serial_s"], r["pair_s"])
+        ceiling = _ratios(r["spin_serial_s"], r["spin_pair_s"])
+        out.update(per, gain=gain, ceilings=ceiling,
+                   digests=[i["digest"] for i in got["instances"]],
+                   exit_status=got["exit_status"])
+        out["worker_over_main"] = median(_ratios(r["worker_s"], r["main_s"]))
+        out["step_over_floor"] = median(_ratios(r["main_s"], r["floor_s"]))
+        out["floor_median_us"] = median(per["floor_us"])
+        out["pair_speedup"] = median(gain)
+        out["ceiling"] = median(ceiling)
+        out["pair_over_ceiling"] = median(_ratios(gain, ceiling))
+        # the last instance is the floor's, on a grid of its own
+        out["identical"] = len(set(out["digests"][:-1])) == 1
     except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
     return out
 
 
-def machine_ceiling(host: dict, n: int = CEILING_SPIN, repeats: int = 3) -> float:
-    """What two threads of this machine deliver at best: the C host's ``--ceiling`` run
-    (the same arithmetic twice one after the other, then twice at once), serial over
-    parallel wall time, the best of ``repeats``. 2 on two free cores; less where the two
-    cores are hyperthreads of one, or shared with other work."""
-    best = 0.0
-    for _ in range(repeats):
-        proc = subprocess.run([host["exe"], "--ceiling", str(n)], capture_output=True,
-                              text=True, timeout=600.0)
-        lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
-        if not lines:
-            raise RuntimeError(f"C host --ceiling printed no result (exit {proc.returncode})")
-        got = json.loads(lines[-1][len("RESULT "):])
-        best = max(best, got["serial_s"] / got["pair_s"])
-    return best
+def median(values) -> float:
+    """The median of an iterable of numbers."""
+    return statistics.median(list(values))
+
+
+def _ratios(a: list[float], b: list[float]) -> list[float]:
+    """Round by round, a over b."""
+    return [x / y for x, y in zip(a, b, strict=True)]
 
 
 def _fmpy_loops(s: Settings, fmu: Path, noop: Path, starts: dict,

@@ -25,18 +25,24 @@
  * threads; "serial" the same two instances one after the other in the main thread.
  * ``block_wall_s`` is the first instance's; ``total_wall_s`` spans all timed steps.
  *
- * Machine ceiling (``fmi2_bench_host --ceiling N``): no FMU; a chain of N floating-point
- * multiply-adds run twice one after the other in the main thread, then twice at once in two
- * threads, printing RESULT {"ok": 1, "serial_s": ..., "pair_s": ...}. Their ratio is what
- * two threads of this machine deliver at best (2 on two free cores; less where the cores are
- * hyperthreads of one or shared with other guests): the yardstick of "pair".
+ * "interleaved" runs every mode in each of BLOCKS rounds, back to back (`interleave`), so
+ * that the ratios of modes compare times taken a fraction of a second apart: six
+ * instances, two serial (the first also "main"), one worker, two pair and one "floor" at
+ * 10 H (N / 10 steps a block, N a multiple of 10: the same model time at the engine's bulk
+ * cost). With -c SPIN each round also runs the machine's two-thread ceiling: a dependent
+ * chain of SPIN floating-point multiply-adds (no memory traffic) twice one after the other,
+ * then twice at once in two threads; their ratio is what two threads of this machine
+ * deliver at that moment (2 on two free cores; less where the cores are hyperthreads of one
+ * or shared with other work). The RESULT line then also has "rounds": per round the wall
+ * times main_s, worker_s, serial_s (both serial blocks), pair_s (first start to last end
+ * of the pair's blocks), floor_s, spin_serial_s and spin_pair_s.
  *
  * Build (the FMI 2 headers ship with fmpy, in fmpy/c-code):
  *     gcc -O2 -std=c99 -I"$FMPY/c-code" -o fmi2_bench_host fmi2_bench_host.c -ldl -lpthread
  * Usage:
  *     fmi2_bench_host DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS
- *                     [-r|-i|-b VR=V]... [-t main|worker|pair|serial]
- *     fmi2_bench_host --ceiling N
+ *                     [-r|-i|-b VR=V]... [-t main|worker|pair|serial|interleaved]
+ *                     [-c SPIN]
  *   DIR the extracted FMU; IN_VRS, OUT_VRS comma-separated Real value references; IN_VALUES
  *   the inputs' values (comma separated, held constant); -r / -i / -b set a Real / Integer /
  *   Boolean (0 or 1) start value before initialization (repeatable).
@@ -111,34 +117,47 @@ typedef struct {
     fmi2GetRealTYPE *get_real;
     const unsigned *in_vr, *out_vr;
     const double *in_val;
-    double out_val[MAXV], h, wall[MAXB], cpu[MAXB];
+    double out_val[MAXV], h, wall[MAXB], cpu[MAXB], began[MAXB], ended[MAXB];
     int n_in, n_out, status;
-    long n, blocks;
+    long n, blocks, cur; /* cur: the block `one_block` runs */
     uint64_t digest; /* FNV-1a over the bits of every output of every timed step */
 } Run;
 
+/* Block b of r: N steps on the master's grid i*h, timed (wall, thread CPU, and the wall
+ * clock's readings at its start and end). */
+static void block(Run *r, long b) {
+    fmi2Component c = r->c;
+    int st = r->status;
+    double w0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_THREAD_CPUTIME_ID);
+    for (long k = 0; k < r->n && st <= fmi2Warning; k++) {
+        double t = (double)(b * r->n + k + 1) * r->h; /* the master's grid, i*h */
+        st = r->set_real(c, r->in_vr, (size_t)r->n_in, r->in_val);
+        if (st <= fmi2Warning) st = r->do_step(c, t, r->h, fmi2True);
+        if (st <= fmi2Warning) st = r->get_real(c, r->out_vr, (size_t)r->n_out, r->out_val);
+        if (st > fmi2Warning) break;
+        for (int j = 0; j < r->n_out; j++) {
+            uint64_t bits;
+            memcpy(&bits, &r->out_val[j], sizeof bits);
+            r->digest = (r->digest ^ bits) * 1099511628211ull;
+        }
+    }
+    double w1 = now(CLOCK_MONOTONIC);
+    r->wall[b] = w1 - w0;
+    r->cpu[b] = now(CLOCK_THREAD_CPUTIME_ID) - c0;
+    r->began[b] = w0;
+    r->ended[b] = w1;
+    r->status = st;
+}
+
 static void *steps(void *arg) {
     Run *r = arg;
-    fmi2Component c = r->c;
-    int st = fmi2OK;
-    for (long b = 0; b < r->blocks && st <= fmi2Warning; b++) {
-        double w0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_THREAD_CPUTIME_ID);
-        for (long k = 0; k < r->n; k++) {
-            double t = (double)(b * r->n + k + 1) * r->h; /* the master's grid, i*h */
-            st = r->set_real(c, r->in_vr, (size_t)r->n_in, r->in_val);
-            if (st <= fmi2Warning) st = r->do_step(c, t, r->h, fmi2True);
-            if (st <= fmi2Warning) st = r->get_real(c, r->out_vr, (size_t)r->n_out, r->out_val);
-            if (st > fmi2Warning) break;
-            for (int j = 0; j < r->n_out; j++) {
-                uint64_t bits;
-                memcpy(&bits, &r->out_val[j], sizeof bits);
-                r->digest = (r->digest ^ bits) * 1099511628211ull;
-            }
-        }
-        r->wall[b] = now(CLOCK_MONOTONIC) - w0;
-        r->cpu[b] = now(CLOCK_THREAD_CPUTIME_ID) - c0;
-    }
-    r->status = st;
+    for (long b = 0; b < r->blocks && r->status <= fmi2Warning; b++) block(r, b);
+    return NULL;
+}
+
+static void *one_block(void *arg) {
+    Run *r = arg;
+    block(r, r->cur);
     return NULL;
 }
 
@@ -148,7 +167,8 @@ static void print_times(const char *key, const double *v, long n) {
     printf("]");
 }
 
-/* The arithmetic of the machine ceiling: a dependent chain, no memory traffic. */
+/* The arithmetic of the machine's two-thread ceiling: a dependent chain, no memory
+ * traffic. */
 static void *spin(void *arg) {
     long n = *(const long *)arg;
     volatile double x = 1.0;
@@ -158,24 +178,92 @@ static void *spin(void *arg) {
     return NULL;
 }
 
-static int ceiling(long n) {
+/* The spin twice one after the other, then twice at once in two threads: the wall times
+ * (1: pthread_create failed). */
+static int spin_twice(long n, double *serial, double *pair) {
     pthread_t th[2];
     double w0 = now(CLOCK_MONOTONIC);
     spin(&n);
     spin(&n);
-    double serial = now(CLOCK_MONOTONIC) - w0;
+    *serial = now(CLOCK_MONOTONIC) - w0;
     w0 = now(CLOCK_MONOTONIC);
     for (int i = 0; i < 2; i++)
-        if (pthread_create(&th[i], NULL, spin, &n)) return fail("pthread_create", -1);
+        if (pthread_create(&th[i], NULL, spin, &n)) return 1;
     for (int i = 0; i < 2; i++) pthread_join(th[i], NULL);
-    printf("RESULT {\"ok\": 1, \"serial_s\": %.9g, \"pair_s\": %.9g}\n", serial,
-           now(CLOCK_MONOTONIC) - w0);
-    fflush(stdout);
+    *pair = now(CLOCK_MONOTONIC) - w0;
     return 0;
 }
 
+/* Interleaved mode: instances by role. The two serial ones step in the main thread one
+ * after the other (the first is also "main"), WORKER in a thread of its own, the two PAIR
+ * ones at once in two threads, FLOOR in the main thread at 10 H (N / 10 steps a block: the
+ * same stretch of model time at the engine's bulk cost). */
+enum { SERIAL1, SERIAL2, WORKER, PAIR1, PAIR2, FLOOR, N_MIXED };
+
+typedef struct {
+    double main[MAXB], worker[MAXB], serial[MAXB], pair[MAXB], floor[MAXB];
+    double spin_serial[MAXB], spin_pair[MAXB];
+} Rounds;
+
+/* Block b of each given instance at once, one thread each (0: pthread_create failed). */
+static int together(Run **r, int k, long b) {
+    pthread_t th[2];
+    int made = 0;
+    for (; made < k; made++) {
+        r[made]->cur = b;
+        if (pthread_create(&th[made], NULL, one_block, r[made])) break;
+    }
+    for (int i = 0; i < made; i++) pthread_join(th[i], NULL);
+    return made == k;
+}
+
+/* Round b of every mode back to back, so that each ratio compares times a few tens of
+ * milliseconds apart in the same stretch of model time: on a machine whose speed drifts,
+ * runs of one mode after another compare different speeds, not different modes. With
+ * spin_n > 0 each round also runs the machine ceiling's arithmetic (`spin_twice`). */
+static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
+    for (long b = 0; b < blocks; b++) {
+        Run *pair[2] = {&run[PAIR1], &run[PAIR2]}, *worker = &run[WORKER];
+        block(&run[SERIAL1], b);
+        if (!together(&worker, 1, b)) return 1;
+        block(&run[SERIAL2], b);
+        block(&run[FLOOR], b);
+        if (!together(pair, 2, b)) return 1;
+        out->main[b] = run[SERIAL1].wall[b];
+        out->worker[b] = run[WORKER].wall[b];
+        out->serial[b] = run[SERIAL1].wall[b] + run[SERIAL2].wall[b];
+        double t0 = pair[0]->began[b] < pair[1]->began[b] ? pair[0]->began[b]
+                                                            : pair[1]->began[b];
+        double t1 = pair[0]->ended[b] > pair[1]->ended[b] ? pair[0]->ended[b]
+                                                          : pair[1]->ended[b];
+        out->pair[b] = t1 - t0;
+        out->floor[b] = run[FLOOR].wall[b];
+        out->spin_serial[b] = out->spin_pair[b] = 0.0;
+        if (spin_n > 0 && spin_twice(spin_n, &out->spin_serial[b], &out->spin_pair[b]))
+            return 1;
+    }
+    return 0;
+}
+
+static void print_rounds(const Rounds *r, long blocks) {
+    printf(", \"rounds\": {");
+    print_times("main_s", r->main, blocks);
+    printf(", ");
+    print_times("worker_s", r->worker, blocks);
+    printf(", ");
+    print_times("serial_s", r->serial, blocks);
+    printf(", ");
+    print_times("pair_s", r->pair, blocks);
+    printf(", ");
+    print_times("floor_s", r->floor, blocks);
+    printf(", ");
+    print_times("spin_serial_s", r->spin_serial, blocks);
+    printf(", ");
+    print_times("spin_pair_s", r->spin_pair, blocks);
+    printf("}");
+}
+
 int main(int argc, char **argv) {
-    if (argc == 3 && !strcmp(argv[1], "--ceiling")) return ceiling(strtol(argv[2], NULL, 10));
     if (argc < 10) {
         fprintf(stderr, "usage: %s DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS "
                         "[-r|-i|-b VR=V]...\n", argv[0]);
@@ -196,9 +284,14 @@ int main(int argc, char **argv) {
     for (int k = 0; k < n_out; k++) out_vr[k] = (unsigned)buf[k];
     if (blocks < 1 || blocks > MAXB || n < 1 || !(h > 0.0)) return 2;
     const char *mode = "main";
+    long spin_n = 0;
     for (int a = 10; a + 1 < argc; a += 2) {
         if (!strcmp(argv[a], "-t")) {
             mode = argv[a + 1];
+            continue;
+        }
+        if (!strcmp(argv[a], "-c")) {
+            spin_n = strtol(argv[a + 1], NULL, 10);
             continue;
         }
         const char *eq = strchr(argv[a + 1], '=');
@@ -242,8 +335,10 @@ int main(int argc, char **argv) {
     fmi2FreeInstanceTYPE *free_instance = (fmi2FreeInstanceTYPE *)need(lib, "fmi2FreeInstance");
 
     fmi2CallbackFunctions callbacks = {log_message, calloc, free, NULL, NULL};
-    int n_inst = (!strcmp(mode, "pair") || !strcmp(mode, "serial")) ? 2 : 1;
-    Run run[2];
+    int mixed = !strcmp(mode, "interleaved");
+    int n_inst = mixed ? N_MIXED : (!strcmp(mode, "pair") || !strcmp(mode, "serial")) ? 2 : 1;
+    if (mixed && n % 10) return 2; /* the floor instance steps n / 10 times 10 h */
+    Run run[N_MIXED];
     double t0 = now(CLOCK_MONOTONIC), t1 = t0, t2 = t0, t3 = t0;
     for (int i = 0; i < n_inst; i++) {
         Run *r = &run[i];
@@ -256,13 +351,15 @@ int main(int argc, char **argv) {
         r->out_vr = out_vr;
         r->n_in = n_in;
         r->n_out = n_out;
-        r->h = h;
-        r->n = n;
+        r->h = (mixed && i == FLOOR) ? 10.0 * h : h;
+        r->n = (mixed && i == FLOOR) ? n / 10 : n;
         r->blocks = blocks;
         r->digest = 1469598103934665603ull;
         double a0 = now(CLOCK_MONOTONIC);
-        r->c = instantiate(i ? "bench2" : "bench", fmi2CoSimulation, guid, resources,
-                           &callbacks, fmi2False, fmi2False);
+        char name[16];
+        snprintf(name, sizeof name, "bench%d", i + 1);
+        r->c = instantiate(name, fmi2CoSimulation, guid, resources, &callbacks, fmi2False,
+                           fmi2False);
         if (!i) t1 = now(CLOCK_MONOTONIC), t0 = a0;
         fmi2Component c = r->c;
         if (!c) return fail("fmi2Instantiate", -1);
@@ -280,12 +377,16 @@ int main(int argc, char **argv) {
         if (!i) t2 = now(CLOCK_MONOTONIC);
         if ((st = set_real(c, in_vr, (size_t)n_in, in_val)) > fmi2Warning)
             return fail("fmi2SetReal (inputs)", st);
-        if ((st = do_step(c, 0.0, h, fmi2True)) > fmi2Warning) return fail("fmi2DoStep", st);
+        if ((st = do_step(c, 0.0, r->h, fmi2True)) > fmi2Warning)
+            return fail("fmi2DoStep", st);
         if (!i) t3 = now(CLOCK_MONOTONIC);
     }
 
     double w0 = now(CLOCK_MONOTONIC);
-    if (!strcmp(mode, "main") || !strcmp(mode, "serial")) {
+    Rounds rounds;
+    if (mixed) {
+        if (interleave(run, blocks, spin_n, &rounds)) return fail("pthread_create", -1);
+    } else if (!strcmp(mode, "main") || !strcmp(mode, "serial")) {
         for (int i = 0; i < n_inst; i++) steps(&run[i]);
     } else if (!strcmp(mode, "worker") || !strcmp(mode, "pair")) {
         pthread_t th[2];
@@ -305,6 +406,7 @@ int main(int argc, char **argv) {
     print_times("block_wall_s", run[0].wall, blocks);
     printf(", ");
     print_times("block_cpu_s", run[0].cpu, blocks);
+    if (mixed) print_rounds(&rounds, blocks);
     printf(", \"instances\": [");
     for (int i = 0; i < n_inst; i++) {
         printf("%s{\"digest\": \"%016llx\", ", i ? ", " : "",

@@ -6,9 +6,8 @@ import math
 
 import numpy as np
 
-from .chost import exit_note
+from .chost import exit_note, median
 from .settings import FRICTION_OF, REGIMES, TARGET_ERROR, TARGET_FMU_FACTOR
-from .targets import host_floor
 
 
 def _fmt(x, spec: str = ".3g") -> str:
@@ -232,23 +231,25 @@ def _c_host(result: dict) -> list[str]:
     if th and th["error"]:
         out.append(f"C host thread modes failed: {th['error']}")
     elif th:
-        floor = host_floor(ch)
-        out.append(f"GearPair in the C host by thread ({th['step']:g} s steps, best of "
-                   f"{th['blocks']} blocks of {th['n']} steps, us per step; main: the "
-                   "instantiating thread; worker: another thread; pair: two instances in two "
-                   "threads at once; serial: the same two one after the other):")
-        out.append(table(["threads", "us/step", "CPU us/step", "all timed steps s",
-                          "outputs"],
-                         [[m, " ".join(f"{u:.2f}" for u in th[m]["us"]),
-                           " ".join(f"{u:.2f}" for u in th[m]["cpu_us"]),
-                           _fmt(th[m]["total_s"], ".3f"),
-                           "same" if th["identical"] else " ".join(th[m]["digests"])]
-                          for m in ("main", "worker", "pair", "serial")]))
-        out.append(f"worker / main {th['worker_over_main']:.2f}; pair throughput / serial "
-                   f"{th['pair_speedup']:.2f}, against {th['ceiling']:.2f} for two threads of "
-                   "plain arithmetic on this machine" + (
-                       f"; the engine's bulk cost at 1e-3 s steps per 1e-4 s simulated "
-                       f"(the floor of a 1e-4 s step): {floor:.2f} us" if floor else ""))
+        out.append(f"GearPair in the C host by thread ({th['step']:g} s steps, {th['rounds']} "
+                   f"rounds of {th['n']} steps a mode, run back to back; us per step; main: "
+                   "the instantiating thread; worker: another thread; serial: two instances "
+                   "one after the other; pair: the same two at once in two threads; floor: "
+                   "the same model time at 10 x the step, per step; ceiling: two threads of "
+                   "plain arithmetic over one):")
+        rows = [[m, _fmt(min(th[m + "_us"]), ".2f"), _fmt(median(th[m + "_us"]), ".2f"),
+                 _fmt(max(th[m + "_us"]), ".2f")]
+                for m in ("main", "worker", "serial", "pair", "floor")]
+        rows += [[k, _fmt(min(th[v]), ".2f"), _fmt(median(th[v]), ".2f"),
+                  _fmt(max(th[v]), ".2f")] for k, v in (("pair gain", "gain"),
+                                                         ("ceiling", "ceilings"))]
+        out.append(table(["mode", "best", "median", "worst"], rows))
+        out.append(f"medians of the per-round ratios: worker / main "
+                   f"{th['worker_over_main']:.2f}; main / floor {th['step_over_floor']:.2f}; "
+                   f"pair gain {th['pair_speedup']:.2f} against a ceiling of "
+                   f"{th['ceiling']:.2f}, {th['pair_over_ceiling']:.2f} of it; outputs of "
+                   "every instance at the step " + ("the same" if th["identical"] else
+                                                   "DIFFER: " + " ".join(th["digests"])))
     st = ch.get("startup")
     if st and st.get("error"):
         out.append(f"C host first start failed: {st['error']}")

@@ -34,7 +34,6 @@ TARGET_PAIR = 1.7  # C host: two instances in two threads, throughput over one a
 # TARGET_PAIR / CEILING_AT_TARGET of its own two-thread ceiling.
 FLOOR_AT_TARGET_US = 5.66
 CEILING_AT_TARGET = 2.0
-CEILING_SPIN = 50_000_000  # multiply-adds per thread of the C host's --ceiling run
 TARGET_FIRST_START_S = 5.0  # first instantiation with empty caches
 TARGET_LADDER = 10.0  # torsional constant stiffness at least this much cheaper than stick-slip
 SCIPY_MAX_EVENTS = 1000  # switches per communication step before a scipy run counts as stalled
@@ -84,6 +83,10 @@ class Settings:
     host_steps : communication steps of the C host and fmpy loops (2 inputs set, doStep,
         4 outputs got)
     host_n, host_blocks : steps per timed block and blocks (the best block counts)
+    host_rounds : rounds of the C host's interleaved thread modes (`chost.host_threads`:
+        the medians of the per-round ratios count; ``host_n`` steps a block, a multiple of
+        10)
+    round_spin : multiply-adds per thread of each round's machine-ceiling arithmetic
     repeats : timed runs of the cheap measurements (the best counts)
     cost_t_end : simulated time of each scene and ladder run
     scenes_dir : the folder of scenes (``*.toml``) whose cost is timed, relative to the
@@ -123,6 +126,8 @@ class Settings:
     host_steps: tuple[float, ...] = (1e-4, 1e-3)
     host_n: int = 2000
     host_blocks: int = 3
+    host_rounds: int = 15
+    round_spin: int = 10_000_000
     repeats: int = 3
     cost_t_end: float = 0.3
     scenes_dir: str = SCENES_DIR
@@ -145,7 +150,7 @@ QUICK = Settings(
                  ("LSODA", (1e-5,))),
     plain_rtols=(("RK45", (1e-6,)), ("DOP853", (1e-6, 1e-9))),
     check_horizon=0.0005, check_regimes=("stick_slip",), step_horizon=0.02, calls=150,
-    host_n=100, host_blocks=2,
+    host_n=100, host_blocks=2, host_rounds=3, round_spin=2_000_000,
     repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0)
 FULL = Settings(
     name="full", windows=tuple((r, 0.02) for r in REGIMES),
@@ -154,7 +159,7 @@ FULL = Settings(
                  ("DOP853", (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)),
                  ("Radau", (1e-4, 1e-5, 1e-6, 1e-7)), ("LSODA", (1e-4, 1e-5, 1e-6, 1e-7))),
     check_horizon=0.02, fmu_rtols=(1e-6, 1e-8), step_horizon=2.0, calls=5000, repeats=5,
-    cost_t_end=0.5, ladder_repeats=15, memory=True)
+    cost_t_end=0.5, ladder_repeats=15, host_rounds=30, memory=True)
 PRESETS = {"quick": QUICK, "default": DEFAULT, "full": FULL}
 
 Progress = Callable[[str], None]

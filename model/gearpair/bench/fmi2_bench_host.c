@@ -200,9 +200,12 @@ static int spin_twice(long n, double *serial, double *pair) {
  * same stretch of model time at the engine's bulk cost). */
 enum { SERIAL1, SERIAL2, WORKER, PAIR1, PAIR2, FLOOR, N_MIXED };
 
+/* The per-round wall times of the RESULT line's "rounds", by name. */
+enum { MAIN_S, WORKER_S, SERIAL_S, PAIR_S, FLOOR_S, SPIN_SERIAL_S, SPIN_PAIR_S, N_SERIES };
+static const char *const SERIES[N_SERIES] = {"main_s", "worker_s", "serial_s", "pair_s",
+                                             "floor_s", "spin_serial_s", "spin_pair_s"};
 typedef struct {
-    double main[MAXB], worker[MAXB], serial[MAXB], pair[MAXB], floor[MAXB];
-    double spin_serial[MAXB], spin_pair[MAXB];
+    double s[N_SERIES][MAXB];
 } Rounds;
 
 /* Block b of each given instance at once, one thread each (0: pthread_create failed). */
@@ -229,37 +232,29 @@ static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
         block(&run[SERIAL2], b);
         block(&run[FLOOR], b);
         if (!together(pair, 2, b)) return 1;
-        out->main[b] = run[SERIAL1].wall[b];
-        out->worker[b] = run[WORKER].wall[b];
-        out->serial[b] = run[SERIAL1].wall[b] + run[SERIAL2].wall[b];
+        double *got[N_SERIES];
+        for (int k = 0; k < N_SERIES; k++) got[k] = &out->s[k][b];
+        *got[MAIN_S] = run[SERIAL1].wall[b];
+        *got[WORKER_S] = run[WORKER].wall[b];
+        *got[SERIAL_S] = run[SERIAL1].wall[b] + run[SERIAL2].wall[b];
         double t0 = pair[0]->began[b] < pair[1]->began[b] ? pair[0]->began[b]
                                                             : pair[1]->began[b];
         double t1 = pair[0]->ended[b] > pair[1]->ended[b] ? pair[0]->ended[b]
                                                           : pair[1]->ended[b];
-        out->pair[b] = t1 - t0;
-        out->floor[b] = run[FLOOR].wall[b];
-        out->spin_serial[b] = out->spin_pair[b] = 0.0;
-        if (spin_n > 0 && spin_twice(spin_n, &out->spin_serial[b], &out->spin_pair[b]))
-            return 1;
+        *got[PAIR_S] = t1 - t0;
+        *got[FLOOR_S] = run[FLOOR].wall[b];
+        *got[SPIN_SERIAL_S] = *got[SPIN_PAIR_S] = 0.0;
+        if (spin_n > 0 && spin_twice(spin_n, got[SPIN_SERIAL_S], got[SPIN_PAIR_S])) return 1;
     }
     return 0;
 }
 
 static void print_rounds(const Rounds *r, long blocks) {
     printf(", \"rounds\": {");
-    print_times("main_s", r->main, blocks);
-    printf(", ");
-    print_times("worker_s", r->worker, blocks);
-    printf(", ");
-    print_times("serial_s", r->serial, blocks);
-    printf(", ");
-    print_times("pair_s", r->pair, blocks);
-    printf(", ");
-    print_times("floor_s", r->floor, blocks);
-    printf(", ");
-    print_times("spin_serial_s", r->spin_serial, blocks);
-    printf(", ");
-    print_times("spin_pair_s", r->spin_pair, blocks);
+    for (int k = 0; k < N_SERIES; k++) {
+        printf("%s", k ? ", " : "");
+        print_times(SERIES[k], r->s[k], blocks);
+    }
     printf("}");
 }
 

@@ -152,9 +152,11 @@ def test_two_instances_in_two_threads_of_a_c_host(fmu_path, tmp_path):
            for m in (*chost.THREAD_MODES, "interleaved")}
     digests = {m: [i["digest"] for i in g["instances"]] for m, g in got.items()}
     assert len(digests["pair"]) == len(digests["serial"]) == 2
-    # interleaved: every mode in each round; its last instance, the floor, steps 10 x 1e-4 s
-    assert len(digests["interleaved"]) == 6
+    # interleaved: every mode in each round; its last instance, the floor, steps 10 x 1e-4 s;
+    # a forked copy of the host steps its copy of the twin (the one before the floor)
+    assert len(digests["interleaved"]) == 7
     assert digests["interleaved"].pop() != digests["main"][0]
+    digests["forked copy"] = [got["interleaved"]["rounds"]["twin_digest"]]
     assert {d for ds in digests.values() for d in ds} == {digests["main"][0]}, digests
     assert all(g["exit_status"] == 0 for g in got.values())
     # the outputs moved: the digest is of a stick-slip run, not of constants

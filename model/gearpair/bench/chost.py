@@ -212,41 +212,51 @@ def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, round
     - ``main_us``: per step in the thread that instantiated the instance;
     - ``worker_us``: per step of another instance in a thread of its own, as a master's
       thread pool steps it;
-    - ``serial_us`` / ``pair_us``: per step and instance of two instances, one after the
-      other in the main thread / at once in two threads (wall time of the pair's block);
+    - ``serial_us`` / ``pair_us`` / ``procs_us``: per step and instance of two instances,
+      one after the other in the main thread / at once in two threads / at once in two
+      processes (the host and a forked copy of it, which share nothing), from the first
+      start to the last end of the block;
     - ``floor_us``: the floor of a ``step``: an instance stepping the same model time at
       10 ``step`` (the engine's bulk cost; the C layer's own cost, well under 1 % of it
       there, included), per ``step`` of model time (``floor_median_us``: the median);
     - ``gain``: serial over pair, the pair's throughput gain;
-    - ``ceilings``: the machine's own two-thread gain on ``spin`` multiply-adds (a
-      dependent chain, no memory traffic: 2 on two free cores);
+    - ``ceilings``: serial over the two processes, what this machine gives two instances
+      that share nothing: the ceiling of ``gain``. Its cores may deliver less than 2 for
+      this work where they are hyperthreads of one or share a core with other guests,
+      while a chain of dependent arithmetic, which leaves most of a core idle, still
+      scales by 2 (``spin_ceilings``: ``spin`` multiply-adds twice one after the other
+      over twice at once in two threads);
 
     and the medians of the per-round ratios: ``worker_over_main``, ``step_over_floor``
     (main over floor), ``pair_speedup`` (the pair's throughput over one after the other),
-    ``ceiling`` and ``pair_over_ceiling``. ``identical``: every instance stepping at
-    ``step`` gave the same outputs (the host's digest of every output of every step)."""
+    ``ceiling``, ``spin_ceiling`` and ``pair_over_ceiling`` (gain over ceiling: the pair in
+    threads over the two processes). ``identical``: every instance stepping at ``step``, in
+    either process, gave the same outputs (the host's digest of every output of every
+    step)."""
     out: dict = {"step": step, "n": n, "rounds": rounds, "error": None}
     try:
         progress(f"C host: GearPair at {step:g} s steps, every thread mode, {rounds} rounds")
         got = run_host(host, unit, start, step, n, rounds, threads="interleaved", spin=spin)
         r = got["rounds"]
         # per step (and instance: serial and pair blocks hold two instances' n steps)
-        per = {f"{k}_us": [1e6 * v / (n * (2 if k in ("serial", "pair") else 1))
+        per = {f"{k}_us": [1e6 * v / (n * (2 if k in ("serial", "pair", "procs") else 1))
                            for v in r[f"{k}_s"]]
-               for k in ("main", "worker", "serial", "pair", "floor")}
+               for k in ("main", "worker", "serial", "pair", "procs", "floor")}
         gain = _ratios(r["serial_s"], r["pair_s"])
-        ceiling = _ratios(r["spin_serial_s"], r["spin_pair_s"])
-        out.update(per, gain=gain, ceilings=ceiling,
-                   digests=[i["digest"] for i in got["instances"]],
+        ceiling = _ratios(r["serial_s"], r["procs_s"])
+        spin = _ratios(r["spin_serial_s"], r["spin_pair_s"])
+        # the floor's instance (the last) steps a grid of its own
+        digests = [i["digest"] for i in got["instances"]][:-1] + [r["twin_digest"]]
+        out.update(per, gain=gain, ceilings=ceiling, spin_ceilings=spin, digests=digests,
                    exit_status=got["exit_status"])
         out["worker_over_main"] = median(_ratios(r["worker_s"], r["main_s"]))
         out["step_over_floor"] = median(_ratios(r["main_s"], r["floor_s"]))
         out["floor_median_us"] = median(per["floor_us"])
         out["pair_speedup"] = median(gain)
         out["ceiling"] = median(ceiling)
+        out["spin_ceiling"] = median(spin)
         out["pair_over_ceiling"] = median(_ratios(gain, ceiling))
-        # the last instance is the floor's, on a grid of its own
-        out["identical"] = len(set(out["digests"][:-1])) == 1
+        out["identical"] = len(set(digests)) == 1
     except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
     return out

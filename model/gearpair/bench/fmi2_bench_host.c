@@ -26,16 +26,16 @@
  * ``block_wall_s`` is the first instance's; ``total_wall_s`` spans all timed steps.
  *
  * "interleaved" runs every mode in each of BLOCKS rounds, back to back (`interleave`), so
- * that the ratios of modes compare times taken a fraction of a second apart: six
- * instances, two serial (the first also "main"), one worker, two pair and one "floor" at
- * 10 H (N / 10 steps a block, N a multiple of 10: the same model time at the engine's bulk
- * cost). With -c SPIN each round also runs the machine's two-thread ceiling: a dependent
- * chain of SPIN floating-point multiply-adds (no memory traffic) twice one after the other,
- * then twice at once in two threads; their ratio is what two threads of this machine
- * deliver at that moment (2 on two free cores; less where the cores are hyperthreads of one
- * or shared with other work). The RESULT line then also has "rounds": per round the wall
- * times main_s, worker_s, serial_s (both serial blocks), pair_s (first start to last end
- * of the pair's blocks), floor_s, spin_serial_s and spin_pair_s.
+ * that the ratios of modes compare times taken a fraction of a second apart: seven
+ * instances, two serial (the first also "main"), one worker, two pair, a twin that this
+ * process and a forked copy of it step at once (two instances that share nothing: the
+ * machine's ceiling for two) and one "floor" at 10 H (N / 10 steps a block, N a multiple
+ * of 10: the same model time at the engine's bulk cost). With -c SPIN each round also runs
+ * a dependent chain of SPIN floating-point multiply-adds (no memory traffic) twice one
+ * after the other, then twice at once in two threads. The RESULT line then also has
+ * "rounds": per round the wall times main_s, worker_s, serial_s (both serial blocks),
+ * pair_s and procs_s (first start to last end of the two blocks), floor_s, spin_serial_s
+ * and spin_pair_s, and twin_digest, the forked copy's digest.
  *
  * Build (the FMI 2 headers ship with fmpy, in fmpy/c-code):
  *     gcc -O2 -std=c99 -I"$FMPY/c-code" -o fmi2_bench_host fmi2_bench_host.c -ldl -lpthread
@@ -55,7 +55,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "fmi2Functions.h"
 
@@ -197,16 +199,54 @@ static int spin_twice(long n, double *serial, double *pair) {
 /* Interleaved mode: instances by role. The two serial ones step in the main thread one
  * after the other (the first is also "main"), WORKER in a thread of its own, the two PAIR
  * ones at once in two threads, FLOOR in the main thread at 10 H (N / 10 steps a block: the
- * same stretch of model time at the engine's bulk cost). */
-enum { SERIAL1, SERIAL2, WORKER, PAIR1, PAIR2, FLOOR, N_MIXED };
+ * same stretch of model time at the engine's bulk cost). TWIN steps in the main thread while
+ * a forked copy of this process steps its own copy of TWIN at the same time (`twin_block`):
+ * two instances that share nothing at all, the machine's ceiling for two of them. */
+enum { SERIAL1, SERIAL2, WORKER, PAIR1, PAIR2, TWIN, FLOOR, N_MIXED };
 
 /* The per-round wall times of the RESULT line's "rounds", by name. */
-enum { MAIN_S, WORKER_S, SERIAL_S, PAIR_S, FLOOR_S, SPIN_SERIAL_S, SPIN_PAIR_S, N_SERIES };
-static const char *const SERIES[N_SERIES] = {"main_s", "worker_s", "serial_s", "pair_s",
-                                             "floor_s", "spin_serial_s", "spin_pair_s"};
+enum { MAIN_S, WORKER_S, SERIAL_S, PAIR_S, PROCS_S, FLOOR_S, SPIN_SERIAL_S, SPIN_PAIR_S,
+       N_SERIES };
+static const char *const SERIES[N_SERIES] = {"main_s",  "worker_s",      "serial_s",
+                                             "pair_s",  "procs_s",       "floor_s",
+                                             "spin_serial_s", "spin_pair_s"};
 typedef struct {
     double s[N_SERIES][MAXB];
+    uint64_t twin_digest; /* the forked copy's TWIN */
 } Rounds;
+
+/* The wall time from the first start to the last end of block b of two runs. */
+static double span(double began0, double ended0, double began1, double ended1) {
+    return (ended0 > ended1 ? ended0 : ended1) - (began0 < began1 ? began0 : began1);
+}
+
+/* The forked copy of this process: steps its copy of TWIN block by block as told through
+ * `go` (a block number; -1: exit) and answers through `back` (the block's start and end on
+ * the shared monotonic clock, its digest so far). It runs no Python and leaves by _exit: the
+ * interpreter it inherited is never touched. */
+static void twin_child(Run *twin, int go, int back) {
+    long b;
+    while (read(go, &b, sizeof b) == (ssize_t)sizeof b && b >= 0) {
+        block(twin, b);
+        double times[2] = {twin->began[b], twin->ended[b]};
+        if (write(back, times, sizeof times) != (ssize_t)sizeof times ||
+            write(back, &twin->digest, sizeof twin->digest) != (ssize_t)sizeof twin->digest)
+            break;
+    }
+    _exit(twin->status > fmi2Warning);
+}
+
+/* Block b of TWIN here and in the forked copy at once: the span of the two (-1.0: the copy
+ * did not answer). */
+static double twin_block(Run *twin, long b, int go, int back, uint64_t *digest) {
+    double times[2];
+    if (write(go, &b, sizeof b) != (ssize_t)sizeof b) return -1.0;
+    block(twin, b);
+    if (read(back, times, sizeof times) != (ssize_t)sizeof times ||
+        read(back, digest, sizeof *digest) != (ssize_t)sizeof *digest)
+        return -1.0;
+    return span(twin->began[b], twin->ended[b], times[0], times[1]);
+}
 
 /* Block b of each given instance at once, one thread each (0: pthread_create failed). */
 static int together(Run **r, int k, long b) {
@@ -223,30 +263,51 @@ static int together(Run **r, int k, long b) {
 /* Round b of every mode back to back, so that each ratio compares times a few tens of
  * milliseconds apart in the same stretch of model time: on a machine whose speed drifts,
  * runs of one mode after another compare different speeds, not different modes. With
- * spin_n > 0 each round also runs the machine ceiling's arithmetic (`spin_twice`). */
+ * spin_n > 0 each round also runs the machine ceiling's arithmetic (`spin_twice`).
+ * Returns 0, or 1 when a thread or the forked copy could not be made or did not answer. */
 static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
-    for (long b = 0; b < blocks; b++) {
+    int go[2], back[2];
+    if (pipe(go) || pipe(back)) return 1;
+    fflush(stdout); /* the copy must not print this process's buffered output again */
+    pid_t child = fork();
+    if (child < 0) return 1;
+    if (child == 0) {
+        close(go[1]);
+        close(back[0]);
+        twin_child(&run[TWIN], go[0], back[1]);
+    }
+    close(go[0]);
+    close(back[1]);
+    int failed = 0;
+    for (long b = 0; b < blocks && !failed; b++) {
         Run *pair[2] = {&run[PAIR1], &run[PAIR2]}, *worker = &run[WORKER];
         block(&run[SERIAL1], b);
-        if (!together(&worker, 1, b)) return 1;
+        failed |= !together(&worker, 1, b);
         block(&run[SERIAL2], b);
         block(&run[FLOOR], b);
-        if (!together(pair, 2, b)) return 1;
+        failed |= !together(pair, 2, b);
         double *got[N_SERIES];
         for (int k = 0; k < N_SERIES; k++) got[k] = &out->s[k][b];
+        *got[PROCS_S] = twin_block(&run[TWIN], b, go[1], back[0], &out->twin_digest);
+        failed |= *got[PROCS_S] < 0.0;
         *got[MAIN_S] = run[SERIAL1].wall[b];
         *got[WORKER_S] = run[WORKER].wall[b];
         *got[SERIAL_S] = run[SERIAL1].wall[b] + run[SERIAL2].wall[b];
-        double t0 = pair[0]->began[b] < pair[1]->began[b] ? pair[0]->began[b]
-                                                            : pair[1]->began[b];
-        double t1 = pair[0]->ended[b] > pair[1]->ended[b] ? pair[0]->ended[b]
-                                                          : pair[1]->ended[b];
-        *got[PAIR_S] = t1 - t0;
+        *got[PAIR_S] = span(pair[0]->began[b], pair[0]->ended[b], pair[1]->began[b],
+                            pair[1]->ended[b]);
         *got[FLOOR_S] = run[FLOOR].wall[b];
         *got[SPIN_SERIAL_S] = *got[SPIN_PAIR_S] = 0.0;
-        if (spin_n > 0 && spin_twice(spin_n, got[SPIN_SERIAL_S], got[SPIN_PAIR_S])) return 1;
+        if (spin_n > 0 && spin_twice(spin_n, got[SPIN_SERIAL_S], got[SPIN_PAIR_S]))
+            failed = 1;
     }
-    return 0;
+    long quit = -1;
+    if (write(go[1], &quit, sizeof quit) != (ssize_t)sizeof quit) failed = 1;
+    close(go[1]);
+    close(back[0]);
+    int status = 0;
+    if (waitpid(child, &status, 0) != child || !WIFEXITED(status) || WEXITSTATUS(status))
+        failed = 1;
+    return failed;
 }
 
 static void print_rounds(const Rounds *r, long blocks) {
@@ -255,7 +316,7 @@ static void print_rounds(const Rounds *r, long blocks) {
         printf("%s", k ? ", " : "");
         print_times(SERIES[k], r->s[k], blocks);
     }
-    printf("}");
+    printf(", \"twin_digest\": \"%016llx\"}", (unsigned long long)r->twin_digest);
 }
 
 int main(int argc, char **argv) {
@@ -380,7 +441,8 @@ int main(int argc, char **argv) {
     double w0 = now(CLOCK_MONOTONIC);
     Rounds rounds;
     if (mixed) {
-        if (interleave(run, blocks, spin_n, &rounds)) return fail("pthread_create", -1);
+        if (interleave(run, blocks, spin_n, &rounds))
+            return fail("a thread or the forked copy (interleaved mode)", -1);
     } else if (!strcmp(mode, "main") || !strcmp(mode, "serial")) {
         for (int i = 0; i < n_inst; i++) steps(&run[i]);
     } else if (!strcmp(mode, "worker") || !strcmp(mode, "pair")) {

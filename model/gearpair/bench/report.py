@@ -234,22 +234,26 @@ def _c_host(result: dict) -> list[str]:
         out.append(f"GearPair in the C host by thread ({th['step']:g} s steps, {th['rounds']} "
                    f"rounds of {th['n']} steps a mode, run back to back; us per step; main: "
                    "the instantiating thread; worker: another thread; serial: two instances "
-                   "one after the other; pair: the same two at once in two threads; floor: "
-                   "the same model time at 10 x the step, per step; ceiling: two threads of "
-                   "plain arithmetic over one):")
-        rows = [[m, _fmt(min(th[m + "_us"]), ".2f"), _fmt(median(th[m + "_us"]), ".2f"),
-                 _fmt(max(th[m + "_us"]), ".2f")]
-                for m in ("main", "worker", "serial", "pair", "floor")]
-        rows += [[k, _fmt(min(th[v]), ".2f"), _fmt(median(th[v]), ".2f"),
-                  _fmt(max(th[v]), ".2f")] for k, v in (("pair gain", "gain"),
-                                                         ("ceiling", "ceilings"))]
+                   "one after the other; pair: the same two at once in two threads; "
+                   "processes: two at once in two processes, this host and a forked copy; "
+                   "floor: the same model time at 10 x the step, per step; pair gain and "
+                   "ceiling: serial over pair and over processes; spin: two threads of "
+                   "dependent arithmetic over one):")
+        rows = [[m, _fmt(min(th[k]), ".2f"), _fmt(median(th[k]), ".2f"),
+                 _fmt(max(th[k]), ".2f")]
+                for m, k in (("main", "main_us"), ("worker", "worker_us"),
+                             ("serial", "serial_us"), ("pair", "pair_us"),
+                             ("processes", "procs_us"), ("floor", "floor_us"),
+                             ("pair gain", "gain"), ("ceiling", "ceilings"),
+                             ("spin", "spin_ceilings"))]
         out.append(table(["mode", "best", "median", "worst"], rows))
         out.append(f"medians of the per-round ratios: worker / main "
                    f"{th['worker_over_main']:.2f}; main / floor {th['step_over_floor']:.2f}; "
                    f"pair gain {th['pair_speedup']:.2f} against a ceiling of "
-                   f"{th['ceiling']:.2f}, {th['pair_over_ceiling']:.2f} of it; outputs of "
-                   "every instance at the step " + ("the same" if th["identical"] else
-                                                   "DIFFER: " + " ".join(th["digests"])))
+                   f"{th['ceiling']:.2f} for two processes, {th['pair_over_ceiling']:.2f} "
+                   f"of it (spin {th['spin_ceiling']:.2f}); outputs of every instance at the "
+                   "step " + ("the same" if th["identical"] else
+                              "DIFFER: " + " ".join(th["digests"])))
     st = ch.get("startup")
     if st and st.get("error"):
         out.append(f"C host first start failed: {st['error']}")

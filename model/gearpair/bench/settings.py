@@ -28,10 +28,10 @@ TARGET_WORKER = 1.10  # C host: a worker thread's cost per step over the instant
 TARGET_PAIR = 1.7  # C host: two instances in two threads, throughput over one after the other
 # Where the two targets above were set (an AMD EPYC machine, 2 cores, 2026-11-25): the floor
 # of a 1e-4 s step there (the engine's bulk cost at 1e-3 s steps per 1e-4 s simulated) and
-# what two threads of plain arithmetic delivered there (two free cores). A machine of another
-# speed or with cores that do not run two threads at full speed is held to the same ratios:
-# a step of at most TARGET_STEP_US / FLOOR_AT_TARGET_US of its floor, and a pair at least
-# TARGET_PAIR / CEILING_AT_TARGET of its own two-thread ceiling.
+# what two cores give two instances there at best (two free cores: 2). A machine of another
+# speed or with cores that do not run two instances at full speed is held to the same
+# ratios: a step of at most TARGET_STEP_US / FLOOR_AT_TARGET_US of its floor, and a pair at
+# least TARGET_PAIR / CEILING_AT_TARGET of its own ceiling (two instances in two processes).
 FLOOR_AT_TARGET_US = 5.66
 CEILING_AT_TARGET = 2.0
 TARGET_FIRST_START_S = 5.0  # first instantiation with empty caches

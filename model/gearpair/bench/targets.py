@@ -123,9 +123,9 @@ def _host_targets(ch: dict | None) -> list[dict]:
         out.append(_target(what, th.get("pair_speedup"), None, TARGET_PAIR, ".2f", True,
                            error=err))
         scaled = TARGET_PAIR / CEILING_AT_TARGET
-        what = (f"C host: two instances in two threads, throughput gain / the machine's own "
-                f"two-thread ceiling (plain arithmetic in the same rounds) >= {scaled:.2f} (the "
-                f"{TARGET_PAIR:g} x target on two free cores; x)")
+        what = (f"C host: two instances in two threads, throughput gain / the machine's "
+                f"ceiling for two instances (two in two processes, in the same rounds) >= "
+                f"{scaled:.2f} (the {TARGET_PAIR:g} x target on two free cores; x)")
         out.append(_target(what, th.get("pair_over_ceiling"), None, scaled, ".2f", True,
                            error=err))
         if not err:

@@ -211,7 +211,8 @@ def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, round
 
     - ``main_us``: per step in the thread that instantiated the instance;
     - ``worker_us``: per step of another instance in a thread of its own, as a master's
-      thread pool steps it;
+      thread pool steps it (main and worker on one CPU, the one the main thread is on: the
+      vCPUs of a virtual machine can differ in speed at the same moment);
     - ``serial_us`` / ``pair_us`` / ``procs_us``: per step and instance of two instances,
       one after the other in the main thread / at once in two threads / at once in two
       processes (the host and a forked copy of it, which share nothing), from the first

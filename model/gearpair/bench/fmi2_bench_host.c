@@ -50,6 +50,7 @@
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdint.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -182,18 +183,23 @@ static void *spin(void *arg) {
 
 /* The spin twice one after the other, then twice at once in two threads: the wall times
  * (1: pthread_create failed). */
-static int spin_twice(long n, double *serial, double *pair) {
+static int spin_twice(long n, double *serial, double *pair, const cpu_set_t *cpus) {
     pthread_t th[2];
+    pthread_attr_t attr;
+    int made = 0;
     double w0 = now(CLOCK_MONOTONIC);
     spin(&n);
     spin(&n);
     *serial = now(CLOCK_MONOTONIC) - w0;
+    if (pthread_attr_init(&attr)) return 1;
+    pthread_attr_setaffinity_np(&attr, sizeof *cpus, cpus);
     w0 = now(CLOCK_MONOTONIC);
-    for (int i = 0; i < 2; i++)
-        if (pthread_create(&th[i], NULL, spin, &n)) return 1;
-    for (int i = 0; i < 2; i++) pthread_join(th[i], NULL);
+    for (; made < 2; made++)
+        if (pthread_create(&th[made], &attr, spin, &n)) break;
+    for (int i = 0; i < made; i++) pthread_join(th[i], NULL);
     *pair = now(CLOCK_MONOTONIC) - w0;
-    return 0;
+    pthread_attr_destroy(&attr);
+    return made != 2;
 }
 
 /* Interleaved mode: instances by role. The two serial ones step in the main thread one
@@ -248,15 +254,20 @@ static double twin_block(Run *twin, long b, int go, int back, uint64_t *digest) 
     return span(twin->began[b], twin->ended[b], times[0], times[1]);
 }
 
-/* Block b of each given instance at once, one thread each (0: pthread_create failed). */
-static int together(Run **r, int k, long b) {
+/* Block b of each given instance at once, one thread each, on the CPUs `cpus` (0:
+ * a thread could not be made). */
+static int together(Run **r, int k, long b, const cpu_set_t *cpus) {
     pthread_t th[2];
+    pthread_attr_t attr;
     int made = 0;
+    if (pthread_attr_init(&attr)) return 0;
+    pthread_attr_setaffinity_np(&attr, sizeof *cpus, cpus);
     for (; made < k; made++) {
         r[made]->cur = b;
-        if (pthread_create(&th[made], NULL, one_block, r[made])) break;
+        if (pthread_create(&th[made], &attr, one_block, r[made])) break;
     }
     for (int i = 0; i < made; i++) pthread_join(th[i], NULL);
+    pthread_attr_destroy(&attr);
     return made == k;
 }
 
@@ -266,6 +277,15 @@ static int together(Run **r, int k, long b) {
  * spin_n > 0 each round also runs the machine ceiling's arithmetic (`spin_twice`).
  * Returns 0, or 1 when a thread or the forked copy could not be made or did not answer. */
 static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
+    /* The main thread and the worker run on one CPU, the one the main thread is on: the
+     * vCPUs of a virtual machine can run at different speeds at the same moment (a busy
+     * sibling hyperthread on the host), and worker / main is to compare threads, not CPUs.
+     * The pair, the forked copy and the spin get every CPU the process may use. */
+    cpu_set_t all, one;
+    if (sched_getaffinity(0, sizeof all, &all)) return 1;
+    CPU_ZERO(&one);
+    CPU_SET(sched_getcpu(), &one);
+    if (pthread_setaffinity_np(pthread_self(), sizeof one, &one)) return 1;
     int go[2], back[2];
     if (pipe(go) || pipe(back)) return 1;
     fflush(stdout); /* the copy must not print this process's buffered output again */
@@ -274,6 +294,7 @@ static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
     if (child == 0) {
         close(go[1]);
         close(back[0]);
+        sched_setaffinity(0, sizeof all, &all);
         twin_child(&run[TWIN], go[0], back[1]);
     }
     close(go[0]);
@@ -282,10 +303,10 @@ static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
     for (long b = 0; b < blocks && !failed; b++) {
         Run *pair[2] = {&run[PAIR1], &run[PAIR2]}, *worker = &run[WORKER];
         block(&run[SERIAL1], b);
-        failed |= !together(&worker, 1, b);
+        failed |= !together(&worker, 1, b, &one);
         block(&run[SERIAL2], b);
         block(&run[FLOOR], b);
-        failed |= !together(pair, 2, b);
+        failed |= !together(pair, 2, b, &all);
         double *got[N_SERIES];
         for (int k = 0; k < N_SERIES; k++) got[k] = &out->s[k][b];
         *got[PROCS_S] = twin_block(&run[TWIN], b, go[1], back[0], &out->twin_digest);
@@ -297,7 +318,7 @@ static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
                             pair[1]->ended[b]);
         *got[FLOOR_S] = run[FLOOR].wall[b];
         *got[SPIN_SERIAL_S] = *got[SPIN_PAIR_S] = 0.0;
-        if (spin_n > 0 && spin_twice(spin_n, got[SPIN_SERIAL_S], got[SPIN_PAIR_S]))
+        if (spin_n > 0 && spin_twice(spin_n, got[SPIN_SERIAL_S], got[SPIN_PAIR_S], &all))
             failed = 1;
     }
     long quit = -1;
@@ -307,6 +328,7 @@ static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
     int status = 0;
     if (waitpid(child, &status, 0) != child || !WIFEXITED(status) || WEXITSTATUS(status))
         failed = 1;
+    pthread_setaffinity_np(pthread_self(), sizeof all, &all);
     return failed;
 }
 

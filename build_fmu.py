@@ -511,7 +511,9 @@ def write_build_record(fmu: Path, script: Path = SCRIPT) -> Path:
     record = {"fmu_sha256": digest(fmu), "builder": str(Path(__file__).resolve()),
               "sources": {str(p): digest(p) for p in files}}
     path = fmu.with_name(fmu.name + ".build.json")
-    path.write_text(json.dumps(record, indent=1) + "\n")
+    part = path.with_name(f".{path.name}.{os.getpid()}.part")
+    part.write_text(json.dumps(record, indent=1) + "\n")
+    part.replace(path)  # whole or not at all for a reader (`gearpair.scenes.location`)
     return path
 
 
@@ -520,7 +522,11 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
     """Build ``<out>/GearPair.fmu`` and return its path.
 
     ``progress`` gets one line per step (default: printed to stderr as ``build_fmu: ...``);
-    compiling the engine the FMU ships takes about 30 s once per engine source."""
+    compiling the engine the FMU ships takes about 30 s once per engine source.
+
+    The FMU is assembled in a private folder inside ``out`` and renamed into place when
+    complete, then its build record likewise: a process reading ``<out>/GearPair.fmu``
+    meanwhile (a run, or a second build) sees the old file or the new one, never a part."""
     from pythonfmu.builder import FmuBuilder
 
     out, package, script = Path(out).resolve(), Path(package).resolve(), Path(script).resolve()
@@ -529,7 +535,8 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
     out.mkdir(parents=True, exist_ok=True)
     saved_path, saved_modules = list(sys.path), set(sys.modules)
     try:
-        with tempfile.TemporaryDirectory(prefix="gearpair_fmu_") as tmp:
+        with tempfile.TemporaryDirectory(prefix="gearpair_fmu_") as tmp, \
+                tempfile.TemporaryDirectory(prefix=".GearPair.fmu.", dir=out) as part:
             progress(f"staging {package.name} and {script.name}")
             staging = Path(tmp) / "resources"
             staging.mkdir()
@@ -544,7 +551,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
                                              encoding="utf-8")
             progress("packing the FMU with pythonfmu")
             fmu = FmuBuilder.build_FMU(
-                script, dest=out / "GearPair.fmu",
+                script, dest=Path(part) / "GearPair.fmu",
                 project_files=[staging / "gearpair", staging / "requirements.txt"],
                 documentation_folder=docs,
                 canHandleVariableCommunicationStepSize=True,
@@ -556,6 +563,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             progress(f"compiling the FMU's C layer ({Path(c_compiler()).name})")
             add_c_layer(fmu, lo_open={v["name"] for v in spec if v["lo_open"]},
                         choices=mod.choices(spec), native=True)
+            fmu = Path(fmu).replace(out / "GearPair.fmu")
             write_build_record(fmu, script)
     finally:
         # The builder imports GearPair and gearpair from temporary folders: forget them so

@@ -1,8 +1,10 @@
-"""Shared fixtures: the GearPair FMU is built once per test session from the working tree."""
+"""Shared fixtures: the GearPair FMU is built once per test run from the working tree."""
 
 from __future__ import annotations
 
+import fcntl
 import importlib.util
+import os
 from pathlib import Path
 
 import pytest
@@ -19,11 +21,29 @@ def _build_module():
 
 @pytest.fixture(scope="session")
 def fmu_path(tmp_path_factory) -> Path:
-    """A fresh build of GearPair.fmu (build_fmu.py, current sources) in a temporary folder."""
+    """A fresh build of GearPair.fmu (build_fmu.py, current sources) in a temporary folder.
+
+    Under pytest-xdist (``-n 2``, scripts/test.sh) the workers share one build: the first
+    to need it builds it into the run's common temporary folder while holding a lock on
+    ``fmu.lock`` there; the others wait for it and use the same file (tests only read it)."""
     pytest.importorskip("pythonfmu")
-    out = tmp_path_factory.mktemp("fmu")
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return _built(tmp_path_factory.mktemp("fmu"))
+    run = tmp_path_factory.getbasetemp().parent  # this run's folder, above each worker's
+    with open(run / "fmu.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        out = run / "fmu"
+        done = out / "GearPair.fmu"
+        # the build renames the FMU and then its record into place: both there, it is whole
+        if done.is_file() and (out / "GearPair.fmu.build.json").is_file():
+            return done
+        return _built(out)
+
+
+def _built(out: Path) -> Path:
     path = _build_module().build(out)
     assert path == out / "GearPair.fmu" and path.is_file()
+    assert sorted(p.name for p in out.iterdir()) == ["GearPair.fmu", "GearPair.fmu.build.json"]
     return path
 
 

@@ -23,12 +23,14 @@ ROOT = Path(__file__).resolve().parents[1]
 # A stand-in for build_fmu.py: zips the package's .py files as the FMU bundles them and writes
 # the build record as build_fmu.write_build_record does (here: the C layer file only).
 FAKE_BUILDER = '''
-import hashlib, json, zipfile
+import hashlib, json, time, zipfile
 from pathlib import Path
 HERE = Path(__file__).resolve().parent
 def digest(p):
     return hashlib.sha256(Path(p).read_bytes()).hexdigest()
 def build(out, package):
+    if (HERE / "slow.txt").is_file():  # a build that takes this long (s)
+        time.sleep(float((HERE / "slow.txt").read_text()))
     fmu = Path(out) / "GearPair.fmu"
     with zipfile.ZipFile(fmu, "w") as z:
         for p in sorted(Path(package).rglob("*.py")):
@@ -110,6 +112,37 @@ def test_a_stale_fmu_found_by_default_is_rebuilt(repo, capsys):
     (location.PACKAGE / "fast" / "new.py").write_text("")  # a file the FMU does not bundle
     assert "gearpair/fast/new.py" in location.stale_reason(repo / "dist" / "GearPair.fmu",
                                                             location.PACKAGE)
+
+
+def test_a_stale_fmu_found_twice_at_once_is_rebuilt_once(repo):
+    """Two runs that find one stale FMU at the same time (parallel runs, sweep workers): one
+    rebuilds it, the other waits for that rebuild and runs the rebuilt FMU, rather than both
+    writing the same file. Threads stand in for processes (the lock is `flock` on a file each
+    opens: the same exclusion either way)."""
+    import threading
+    import warnings
+
+    (repo / "dist").mkdir()
+    fmu = _build(repo)
+    (location.PACKAGE / "params.py").write_text("A = 4\n")
+    (repo / "slow.txt").write_text("1.0")  # the second finds it stale while it is rebuilt
+    start, found, said = threading.Barrier(2), [], []
+
+    def run():
+        start.wait()
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            found.append(location.find_fmu())
+        said.extend(str(x.message) for x in w if issubclass(x.category, SceneWarning))
+
+    threads = [threading.Thread(target=run) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=60)
+    assert found == [fmu, fmu] and said == []  # both run it, neither warned of staleness
+    assert _builds(repo) == 2  # the first build and one rebuild
+    assert location.stale_reason(fmu, location.PACKAGE) is None
 
 
 def test_a_stale_fmu_without_its_builder_or_passed_is_run_with_a_warning(repo):

@@ -17,10 +17,17 @@ An FMU is *stale* when it would not run this package's physics:
 A stale FMU found by default is rebuilt with the builder the record names, bundling this
 package (as before a run on stale physics); without one, the run goes on with a warning.
 An FMU the caller passes is never rebuilt: a stale one gets the warning.
+
+Processes that find one stale FMU at once (parallel runs, sweep workers, test workers)
+rebuild it once: the rebuild holds a lock on ``.GearPair.fmu.lock`` beside the FMU, and
+whoever waited for it looks at the FMU again, finds it rebuilt and runs it. The builder
+writes the FMU under another name and renames it into place, so a run that reads it during a
+rebuild gets the old file or the new one whole.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import json
@@ -29,6 +36,11 @@ import sys
 import warnings
 import zipfile
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # not POSIX (the FMU's binary is Linux-only): no lock
+    fcntl = None
 
 from .errors import SceneError, SceneWarning
 
@@ -97,6 +109,21 @@ def _not_found(where: str) -> SceneError:
         "file), or pass its path (--fmu PATH, Scene.run(fmu_path=...))")
 
 
+@contextlib.contextmanager
+def _rebuild_lock(fmu: Path):
+    """Hold the lock that serializes rebuilds of ``fmu`` among processes (and threads): an
+    exclusive `fcntl.flock` on ``.<name>.lock`` beside it, released when the holder ends."""
+    if fcntl is None:
+        yield
+        return
+    with open(fmu.with_name(f".{fmu.name}.lock"), "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def _rebuild(fmu: Path, builder: Path) -> None:
     spec = importlib.util.spec_from_file_location("_gearpair_build_fmu", builder)
     mod = importlib.util.module_from_spec(spec)
@@ -153,9 +180,14 @@ def find_fmu(fmu_path: str | Path | None = None, rebuild_stale: bool = True) -> 
     """
     fmu, reason, builder = _checked(fmu_path)
     if reason and builder and rebuild_stale:
-        print(f"gearpair: rebuilding stale {fmu}: {reason}", file=sys.stderr, flush=True)
-        _rebuild(fmu, builder)
-        reason = stale_reason(fmu)
+        with _rebuild_lock(fmu):
+            # another process may have rebuilt it while this one waited for the lock
+            fmu, reason, builder = _checked(fmu_path)
+            if reason and builder:
+                print(f"gearpair: rebuilding stale {fmu}: {reason}", file=sys.stderr,
+                      flush=True)
+                _rebuild(fmu, builder)
+                reason = stale_reason(fmu)
     if reason is None:
         return fmu
     warnings.warn(SceneWarning(f"{fmu} is stale ({reason}): it runs other physics than this "

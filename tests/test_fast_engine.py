@@ -296,3 +296,28 @@ def test_the_step_block_names_the_engine_records():
     from gearpair.stepblock import STEP_RECORD
 
     assert STEP_RECORD == OUTPUT_NAMES[1:] + StepSummary._fields[2:]
+
+
+def test_warm_up_builds_no_throwaway_engine_once_the_recorder_is_loaded(compiled,
+                                                                        monkeypatch):
+    """`simulate` calls `warm_up` every time: once `run`'s compiled recorder is loaded for an
+    engine's types, warm_up must return at once instead of building and running a twin
+    (a signature check that never matched cost 2-5 ms per `simulate`, more than the whole
+    run of a cheap model)."""
+    from gearpair.results import simulate
+
+    fx = Effects(dof="torsional", stiffness="constant", friction="off")
+    simulate(engine=FastEngine(None, fx), t_end=1e-3, dt=1e-4)  # loads run's recorder
+    built = []
+    original = FastEngine.__init__
+
+    def counted(self, *args, **kwargs):
+        built.append(args)
+        original(self, *args, **kwargs)
+
+    eng = FastEngine(None, fx)
+    monkeypatch.setattr(FastEngine, "__init__", counted)
+    eng.warm_up()
+    assert built == []
+    traj = simulate(engine=eng, t_end=1e-3, dt=1e-4)
+    assert built == [] and len(traj["time"]) == 11

@@ -502,14 +502,17 @@ class FastEngine(Engine):
         """Load the compiled recorder of `run` (from the on-disk cache; the first call in a
         process takes 0.1-1 s) through a throwaway engine of the same data, unless it is
         loaded: the state and work buffers of this one stay untouched."""
+        # the argument types of the throwaway run below, as `run` makes them (grid_inputs
+        # hands the inputs on read-only: a signature of writable ones is never loaded)
+        grid, T, W, _ = grid_inputs(0.0, np.array([0.0, 1e-9]), 1000.0, 10.0)
         sig = tuple(numba.typeof(a) for a in
-                    (*self._args, np.zeros(2), (np.zeros(1),) * 3, np.zeros((N_REC, 2)),
+                    (*self._args, grid, (T, W, np.zeros(1)), np.zeros((N_REC, 2)),
                      self._lti))
         if sig in run_grid_entry.overloads:
             return
         warm = FastEngine(*self._made[0], **self._made[1])
         warm.reset(0.0, 1000.0, 10.0)
-        warm.run(np.array([0.0, 1e-9]), 1000.0, 10.0)
+        warm.run(grid, 1000.0, 10.0)
 
     def run(self, grid, torque, speed, load_speed=None) -> dict:
         """`Engine.run` in one compiled call: the same records as `advance_values` +

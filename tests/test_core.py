@@ -209,7 +209,10 @@ def test_friction_reverses_at_the_pitch_point_nominal_law():
 
 @pytest.fixture(scope="module")
 def stick_run():
-    return simulate(P, Effects(), t_end=0.06, dt=1e-4, rtol=1e-7, engine="reference")
+    # to 40 ms: the window from 20 ms holds both stick episodes of a mesh period (32.5 and
+    # 35.6 ms; 18.2 ms apart at this speed). Measured: stick ratio 0.067 (0.068 to 60 ms),
+    # 21 stuck samples (35), |v| stuck <= 2.5e-16 either way, friction inside the cone
+    return simulate(P, Effects(), t_end=0.04, dt=1e-4, rtol=1e-7, engine="reference")
 
 
 def test_stick_at_the_default_low_speed_point(stick_run):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import fcntl
 import importlib.util
-import os
 from pathlib import Path
 
 import pytest
@@ -19,15 +18,29 @@ def _build_module():
     return mod
 
 
+# Under pytest-xdist with --dist loadfile (scripts/test.sh) a worker takes whole files, in
+# collection order: the files with the longest tests (a compile of the whole engine in fresh
+# caches, the killed sweep client, the bench's quick run, reference-engine runs) go first,
+# so that no worker is left running one of them while the other has nothing to do.
+LONG_FILES = ("test_fmu_start.py", "test_sweep_grid.py", "test_core.py", "test_bench.py",
+              "test_static_friction.py", "test_effects.py", "test_fast_engine.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    if hasattr(config, "workerinput"):  # an xdist worker; each sorts alike (stable sort)
+        rank = {name: i for i, name in enumerate(LONG_FILES)}
+        items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
 @pytest.fixture(scope="session")
-def fmu_path(tmp_path_factory) -> Path:
+def fmu_path(tmp_path_factory, request) -> Path:
     """A fresh build of GearPair.fmu (build_fmu.py, current sources) in a temporary folder.
 
     Under pytest-xdist (``-n 2``, scripts/test.sh) the workers share one build: the first
     to need it builds it into the run's common temporary folder while holding a lock on
     ``fmu.lock`` there; the others wait for it and use the same file (tests only read it)."""
     pytest.importorskip("pythonfmu")
-    if not os.environ.get("PYTEST_XDIST_WORKER"):
+    if not hasattr(request.config, "workerinput"):  # not an xdist worker
         return _built(tmp_path_factory.mktemp("fmu"))
     run = tmp_path_factory.getbasetemp().parent  # this run's folder, above each worker's
     with open(run / "fmu.lock", "a") as lock:

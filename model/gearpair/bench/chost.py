@@ -24,12 +24,12 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import statistics
 import subprocess
 import sysconfig
 import tempfile
 import zipfile
 from pathlib import Path
+from statistics import median
 
 from .fmu import _worker, fmu_start
 from .runs import NEVER, Timing, clock, regime_effects
@@ -261,11 +261,6 @@ def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, round
     except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
     return out
-
-
-def median(values) -> float:
-    """The median of an iterable of numbers."""
-    return statistics.median(list(values))
 
 
 def _ratios(a: list[float], b: list[float]) -> list[float]:

@@ -181,25 +181,33 @@ static void *spin(void *arg) {
     return NULL;
 }
 
-/* The spin twice one after the other, then twice at once in two threads: the wall times
- * (1: pthread_create failed). */
-static int spin_twice(long n, double *serial, double *pair, const cpu_set_t *cpus) {
+/* fn(arg[i]) for i < k (at most 2) at once, one thread each, on the CPUs `cpus`; returns
+ * once all have ended (0: a thread could not be made). */
+static int in_threads(void *(*fn)(void *), void **arg, int k, const cpu_set_t *cpus) {
     pthread_t th[2];
     pthread_attr_t attr;
     int made = 0;
+    if (pthread_attr_init(&attr)) return 0;
+    pthread_attr_setaffinity_np(&attr, sizeof *cpus, cpus);
+    for (; made < k; made++)
+        if (pthread_create(&th[made], &attr, fn, arg[made])) break;
+    for (int i = 0; i < made; i++) pthread_join(th[i], NULL);
+    pthread_attr_destroy(&attr);
+    return made == k;
+}
+
+/* The spin twice one after the other, then twice at once in two threads: the wall times
+ * (1: a thread could not be made). */
+static int spin_twice(long n, double *serial, double *pair, const cpu_set_t *cpus) {
+    void *arg[2] = {&n, &n};
     double w0 = now(CLOCK_MONOTONIC);
     spin(&n);
     spin(&n);
     *serial = now(CLOCK_MONOTONIC) - w0;
-    if (pthread_attr_init(&attr)) return 1;
-    pthread_attr_setaffinity_np(&attr, sizeof *cpus, cpus);
     w0 = now(CLOCK_MONOTONIC);
-    for (; made < 2; made++)
-        if (pthread_create(&th[made], &attr, spin, &n)) break;
-    for (int i = 0; i < made; i++) pthread_join(th[i], NULL);
+    int ok = in_threads(spin, arg, 2, cpus);
     *pair = now(CLOCK_MONOTONIC) - w0;
-    pthread_attr_destroy(&attr);
-    return made != 2;
+    return !ok;
 }
 
 /* Interleaved mode: instances by role. The two serial ones step in the main thread one
@@ -257,18 +265,8 @@ static double twin_block(Run *twin, long b, int go, int back, uint64_t *digest) 
 /* Block b of each given instance at once, one thread each, on the CPUs `cpus` (0:
  * a thread could not be made). */
 static int together(Run **r, int k, long b, const cpu_set_t *cpus) {
-    pthread_t th[2];
-    pthread_attr_t attr;
-    int made = 0;
-    if (pthread_attr_init(&attr)) return 0;
-    pthread_attr_setaffinity_np(&attr, sizeof *cpus, cpus);
-    for (; made < k; made++) {
-        r[made]->cur = b;
-        if (pthread_create(&th[made], &attr, one_block, r[made])) break;
-    }
-    for (int i = 0; i < made; i++) pthread_join(th[i], NULL);
-    pthread_attr_destroy(&attr);
-    return made == k;
+    for (int i = 0; i < k; i++) r[i]->cur = b;
+    return in_threads(one_block, (void **)r, k, cpus);
 }
 
 /* Round b of every mode back to back, so that each ratio compares times a few tens of

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
+from statistics import median
 
 import numpy as np
 
-from .chost import exit_note, median
+from .chost import exit_note
 from .settings import FRICTION_OF, REGIMES, TARGET_ERROR, TARGET_FMU_FACTOR
 
 

@@ -80,18 +80,3 @@ def no_runs(monkeypatch):
     monkeypatch.setattr(Scene, "run", ran)
     monkeypatch.setattr(gearpair.sweep.study, "run_grid", ran)
     monkeypatch.setattr(gearpair.bench, "run", ran)
-
-
-def pytest_terminal_summary(terminalreporter):
-    """The golden cases compared at a tolerance (outside the golden file's environment,
-    tests/test_golden.py) or skipped there, one line each (also from xdist workers)."""
-    reps = [r for key in ("passed", "skipped", "failed")
-            for r in terminalreporter.stats.get(key, [])]
-    props = [p for r in reps for p in getattr(r, "user_properties", ())]
-    lines = sorted({v for k, v in props if k == "golden"})
-    if lines:
-        where = sorted({v for k, v in props if k == "golden_env"})
-        terminalreporter.section("golden cases outside the golden file's environment")
-        terminalreporter.write_line("; ".join(where))
-        for ln in lines:
-            terminalreporter.write_line(ln)

@@ -187,9 +187,11 @@ class Model:
         if torque < 0.0 and math.isfinite(self.backlash):
             f = f - km * self.backlash * G
         free = self.free_dofs
+        from .fast.detlinalg import solve  # not LAPACK: the same bits on every machine
+
         K = (self.Kb + km * np.outer(G, G))[np.ix_(free, free)]
         q = np.zeros(6)
-        q[free] = np.linalg.solve(K, f[free])
+        q[free] = solve(K, f[free])
         return q
 
     def contact_code(self, delta: float) -> int:

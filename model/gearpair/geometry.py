@@ -51,6 +51,8 @@ class Geometry:
 
     @classmethod
     def from_params(cls, p: GearParams) -> Geometry:
+        from .fast import setupmath as sm  # here: gearpair.fast imports this module
+
         m, a0 = p.module, p.pressure_angle
         rb1, rb2 = p.rb1, p.rb2
         ra1 = m * p.z1 / 2 + p.addendum_coef * m
@@ -58,11 +60,12 @@ class Geometry:
         rf1 = m * p.z1 / 2 - p.dedendum_coef * m
         rf2 = m * p.z2 / 2 - p.dedendum_coef * m
         a = m * (p.z1 + p.z2) / 2
-        s1s2 = a * math.sin(a0)
-        pb = math.pi * m * math.cos(a0)
-        s1a = s1s2 - math.sqrt(ra2**2 - rb2**2)
-        s1e = math.sqrt(ra1**2 - rb1**2)
-        s1p = rb1 * math.tan(a0)
+        # setupmath: the same bits on every machine (the C library's differ by CPU)
+        s1s2 = a * sm.sin(a0)
+        pb = math.pi * m * sm.cos(a0)
+        s1a = s1s2 - math.sqrt(ra2 * ra2 - rb2 * rb2)
+        s1e = math.sqrt(ra1 * ra1 - rb1 * rb1)
+        s1p = rb1 * sm.tan(a0)
         if s1a < 0 or s1e > s1s2:
             raise ValueError(
                 "addendum_coef too large: the path of contact leaves the line of action "

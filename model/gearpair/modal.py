@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scipy.linalg import eig, eigh, null_space
 
 from .effects import Effects, StiffnessSpec
 from .equations import X1, X2, G, Model
@@ -48,6 +47,8 @@ def slip_matrices(model: Model, km: float | None = None) -> tuple[np.ndarray, np
 def stick_matrices(model: Model, xi: float | None = None, km: float | None = None):
     """``(Mt, Ct, Kt, P, T)`` of the stick model, Eqs. (22)-(24), for a pair stuck at ``xi``
     (m from A; default the pitch point). Ct includes mesh damping."""
+    from .fast.detlinalg import matmul, null_space_row  # not BLAS: the same bits everywhere
+
     p, geo = model.p, model.geom
     xi = geo.xi_pitch if xi is None else xi
     s1m, s2m = geo.arms(xi)
@@ -72,11 +73,12 @@ def stick_matrices(model: Model, xi: float | None = None, km: float | None = Non
         # full sliding: w . q' = nominal, over the free coordinates only (torsional: rigid
         # supports leave u1, u2, so a stuck pair has one degree of freedom)
         T = np.zeros((6, len(free) - 1))
-        T[free] = null_space(w[None, free])
+        T[free] = null_space_row(w[free])
         P = T.T
     K = model.Kb + km * np.outer(G, G)
     C = model.C + p.cm * np.outer(G, G)
-    return P @ model.M @ T, P @ C @ T, P @ K @ T, P, T
+    return (matmul(matmul(P, model.M), T), matmul(matmul(P, C), T), matmul(matmul(P, K), T),
+            P, T)
 
 
 def _normalize(shapes: np.ndarray) -> np.ndarray:
@@ -109,21 +111,21 @@ def modes(system: GearParams | Model, which: str = "slip", xi: float | None = No
         Mode shapes in q = [x1, y1, u1, x2, y2, u2] (m), one column per mode, largest
         component 1.
     """
+    # the set-up's own eigen-solvers: LAPACK's round differently from one CPU and BLAS kernel
+    # to another (`gearpair.fast.detlinalg`)
+    from .fast.detlinalg import eig_real_general, eigh_generalized, matmul
+
     model = as_model(system, effects)
     if which == "slip":
         M, K = slip_matrices(model)
         free = model.free_dofs  # torsional: the (u1, u2) block, shapes padded with zeros
-        lam, v = eigh(K[np.ix_(free, free)], M[np.ix_(free, free)])
+        lam, v = eigh_generalized(K[np.ix_(free, free)], M[np.ix_(free, free)])
         vec = np.zeros((6, len(free)))
         vec[free] = v
     elif which == "stick":
         Mt, _, Kt, _, T = stick_matrices(model, xi)
-        lam, vec = eig(Kt, Mt)
-        if np.max(np.abs(lam.imag)) > 1e-9 * np.max(np.abs(lam.real)):
-            raise ArithmeticError("stick model has complex eigenvalues")
-        lam, vec = lam.real, T @ vec.real
-        order = np.argsort(lam)
-        lam, vec = lam[order], vec[:, order]
+        lam, vec = eig_real_general(Kt, Mt)  # ascending; complex: ArithmeticError
+        vec = matmul(T, vec)
     else:
         raise ValueError(f"which = {which!r}; choose slip or stick")
     freqs = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
@@ -154,21 +156,23 @@ def kr2_for_first_mode(system: GearParams | Model, f_hz: float = 32.0,
     """
     from scipy.optimize import brentq
 
+    from .fast.setupmath import exp, log  # the same bits on every machine
+
     model = as_model(system, effects)
     if not (np.isfinite(f_hz) and f_hz > 0):
         raise ValueError(f"first_mode_hz = {f_hz!r} is out of range; allowed > 0 Hz")
 
     def f1(log_kr2):
-        p = model.p.replace(kr2=float(np.exp(log_kr2)))
+        p = model.p.replace(kr2=exp(log_kr2))
         return natural_frequencies(as_model(p, model.effects), "slip")[0] - f_hz
 
-    lo, hi = (np.log(x) for x in _KR2_BRACKET)
+    lo, hi = (log(x) for x in _KR2_BRACKET)
     f_lo, f_hi = f1(lo) + f_hz, f1(hi) + f_hz
     if not f_lo < f_hz < f_hi:
         raise ValueError(f"first_mode_hz = {f_hz:g} is out of reach for this gear data: kr2 "
                          f"from {_KR2_BRACKET[0]:g} to {_KR2_BRACKET[1]:g} N/m gives a first "
                          f"mode from {f_lo:.4g} to {f_hi:.4g} Hz")
-    return float(np.exp(brentq(f1, lo, hi, xtol=1e-12)))
+    return exp(brentq(f1, lo, hi, xtol=1e-12))
 
 
 def tune_kr2(p: GearParams, first_mode_hz: float = 32.0,

@@ -114,12 +114,16 @@ class GearParams:
     @property
     def rb1(self) -> float:
         """Base radius of gear 1 (m)."""
-        return self.module * self.z1 * math.cos(self.pressure_angle) / 2.0
+        from .fast.setupmath import cos  # the same bits on every machine
+
+        return self.module * self.z1 * cos(self.pressure_angle) / 2.0
 
     @property
     def rb2(self) -> float:
         """Base radius of gear 2 (m)."""
-        return self.module * self.z2 * math.cos(self.pressure_angle) / 2.0
+        from .fast.setupmath import cos
+
+        return self.module * self.z2 * cos(self.pressure_angle) / 2.0
 
     @property
     def ratio(self) -> float:
@@ -129,12 +133,12 @@ class GearParams:
     @property
     def mu1(self) -> float:
         """Rotational inertia of gear 1 as a mass on its base circle, J1/rb1^2 (kg)."""
-        return self.J1 / self.rb1**2
+        return self.J1 / (self.rb1 * self.rb1)
 
     @property
     def mu2(self) -> float:
         """Rotational inertia of gear 2 as a mass on its base circle, J2/rb2^2 (kg)."""
-        return self.J2 / self.rb2**2
+        return self.J2 / (self.rb2 * self.rb2)
 
     @property
     def m_equiv(self) -> float:

@@ -66,13 +66,17 @@ N_GAUSS = 32
 
 def _inv(a: float | np.ndarray) -> float | np.ndarray:
     """Involute function ``tan(a) - a``."""
-    return np.tan(a) - a
+    from .fast import setupmath as smath  # here: gearpair.fast imports this module
+
+    return smath.tan(a) - a
 
 
 @lru_cache(maxsize=8)
 def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
-    x, w = np.polynomial.legendre.leggauss(n)
-    return x, w
+    from .fast import setupmath as smath
+
+    # not numpy's leggauss: it starts from LAPACK eigenvalues, whose bits vary by kernel
+    return smath.gauss_legendre(n)
 
 
 def _gear_data(p: GearParams, g: Geometry, gear: int) -> tuple[int, float, float, float]:
@@ -107,7 +111,7 @@ def bore_radius(p: GearParams, g: Geometry, gear: int) -> float:
     """
     _, _, rf, rp = _gear_data(p, g, gear)
     m, J = (p.m1, p.J1) if gear == 1 else (p.m2, p.J2)
-    r2 = 2.0 * J / m - rp**2
+    r2 = 2.0 * J / m - rp * rp
     lo, hi = rf / H_FI_RANGE[1], rf / H_FI_RANGE[0]
     r = math.sqrt(r2) if r2 > 0.0 else lo
     return min(max(r, lo), hi)
@@ -179,12 +183,15 @@ def tooth_compliances(
         ``"bending"``, ``"shear"``, ``"axial"``, ``"fillet"`` compliances (m/N), each with the
         shape of ``xi``.
     """
+    from .fast import setupmath as smath  # the same bits on every machine
+    from .fast.detlinalg import matvec
+
     z, rb, rf, _ = _gear_data(p, g, gear)
     xi = np.asarray(xi, dtype=float)
     E, nu, b = p.youngs_modulus, p.poisson, p.face_width
     alpha2 = math.pi / (2.0 * z) + float(_inv(p.pressure_angle))
     a1 = load_angle(p, g, xi, gear)
-    c1, s1 = np.cos(a1), np.sin(a1)
+    c1, s1 = smath.cos(a1), smath.sin(a1)
 
     # Contact point (x_c, h_c) in tooth coordinates.
     phi_c = a1 + alpha2
@@ -194,14 +201,14 @@ def tooth_compliances(
     # Root end of the involute that belongs to the cantilever, and the root geometry.
     if rf < rb:
         alpha_root = alpha2
-        h_b = rb * math.sin(alpha2)  # half chord of the tooth on the base circle
-        theta_f = math.asin(min(h_b / rf, 1.0))
-        x_root = math.sqrt(max(rf**2 - h_b**2, 0.0))
+        h_b = rb * smath.sin(alpha2)  # half chord of the tooth on the base circle
+        theta_f = smath.asin(min(h_b / rf, 1.0))
+        x_root = math.sqrt(max(rf * rf - h_b * h_b, 0.0))
     else:
-        roll_f = math.tan(math.acos(rb / rf))
+        roll_f = smath.tan(smath.acos(rb / rf))
         alpha_root = alpha2 - roll_f
-        theta_f = alpha2 - float(_inv(math.acos(rb / rf)))
-        x_root = rf * math.cos(theta_f)
+        theta_f = alpha2 - float(_inv(smath.acos(rb / rf)))
+        x_root = rf * smath.cos(theta_f)
 
     # Involute part: Gauss-Legendre over alpha in [-alpha1, alpha_root], vectorized over xi.
     t, w = _gauss(int(n_gauss))
@@ -209,42 +216,45 @@ def tooth_compliances(
     half = 0.5 * np.maximum(alpha_root - lo, 0.0)
     al = lo[..., None] + half[..., None] * (t + 1.0)
     roll = alpha2 - al
-    ca, sa = np.cos(al), np.sin(al)
+    ca, sa = smath.cos(al), smath.sin(al)
     x = rb * (ca - roll * sa)
     h = rb * (sa + roll * ca)
     dx = rb * roll * ca * half[..., None]  # |dx/dalpha| times the interval map
     moment = c1[..., None] * (x_c[..., None] - x) - s1[..., None] * h_c[..., None]
-    inertia = 2.0 * h**3 * b / 3.0  # (2h)^3 b / 12
+    inertia = 2.0 * (h * h * h) * b / 3.0  # (2h)^3 b / 12
     area = 2.0 * h * b
     shear_mod = E / (2.0 * (1.0 + nu))
-    bending = np.sum(w * moment**2 / (E * inertia) * dx, axis=-1)
-    shear = np.sum(w * 1.2 / (shear_mod * area) * dx, axis=-1) * c1**2
-    axial = np.sum(w / (E * area) * dx, axis=-1) * s1**2
+    # sums in a fixed order (numpy's pairwise sum takes its order from the SIMD width)
+    bending = smath.row_sum(w * (moment * moment) / (E * inertia) * dx)
+    shear = smath.row_sum(w * 1.2 / (shear_mod * area) * dx) * (c1 * c1)
+    axial = smath.row_sum(w / (E * area) * dx) * (s1 * s1)
 
     # Straight segment between the root and base circles (rectangle of half width h_b).
     if rf < rb and root_segment:
-        x_base = rb * math.cos(alpha2)
+        x_base = rb * smath.cos(alpha2)
         d = x_base - x_root
-        inertia_b = 2.0 * h_b**3 * b / 3.0
+        inertia_b = 2.0 * (h_b * h_b * h_b) * b / 3.0
         area_b = 2.0 * h_b * b
         # integral of (c1 (x_c - x) - s1 h_c)^2 dx over [x_root, x_base], in closed form
         m_root = c1 * (x_c - x_root) - s1 * h_c
         m_base = c1 * (x_c - x_base) - s1 * h_c
-        bending = bending + (m_root**3 - m_base**3) / (3.0 * c1) / (E * inertia_b)
-        shear = shear + 1.2 * c1**2 * d / (shear_mod * area_b)
-        axial = axial + s1**2 * d / (E * area_b)
+        bending = bending + (m_root * m_root * m_root - m_base * m_base * m_base) \
+            / (3.0 * c1) / (E * inertia_b)
+        shear = shear + 1.2 * (c1 * c1) * d / (shear_mod * area_b)
+        axial = axial + (s1 * s1) * d / (E * area_b)
 
     # Fillet foundation (Sainsot et al. 2004). u_f: from the root chord to the point where the
     # load line crosses the centre line (at rb / cos(alpha1)); S_f: root arc thickness.
     r_in = bore_radius(p, g, gear) if r_int is None else float(r_int)
     h_fi = rf / r_in
     basis = np.array(
-        [1.0 / theta_f**2, h_fi**2, h_fi / theta_f, 1.0 / theta_f, h_fi, 1.0]
+        [1.0 / (theta_f * theta_f), h_fi * h_fi, h_fi / theta_f, 1.0 / theta_f, h_fi, 1.0]
     )
-    l_s, m_s, p_s, q_s = SAINSOT_COEFFS @ basis
+    l_s, m_s, p_s, q_s = matvec(SAINSOT_COEFFS, basis)  # not BLAS: the same bits everywhere
     s_f = 2.0 * rf * theta_f
     u = (rb / c1 - x_root) / s_f
-    fillet = c1**2 / (E * b) * (l_s * u**2 + m_s * u + p_s * (1.0 + q_s * np.tan(a1) ** 2))
+    ta = smath.tan(a1)
+    fillet = (c1 * c1) / (E * b) * (l_s * (u * u) + m_s * u + p_s * (1.0 + q_s * (ta * ta)))
 
     return {"bending": bending, "shear": shear, "axial": axial, "fillet": fillet}
 
@@ -262,7 +272,7 @@ def hertz_compliance(p: GearParams) -> float:
     float
         Contact compliance (m/N), the same at every contact position.
     """
-    return 4.0 * (1.0 - p.poisson**2) / (math.pi * p.youngs_modulus * p.face_width)
+    return 4.0 * (1.0 - p.poisson * p.poisson) / (math.pi * p.youngs_modulus * p.face_width)
 
 
 def pair_stiffness_raw(

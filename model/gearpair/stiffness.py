@@ -63,27 +63,33 @@ class MeshStiffness:
             xi = np.linspace(0.0, L, N_TABLE)
             k = np.interp(xi, tab[:, 0], tab[:, 1])
         else:
-            from scipy.interpolate import CubicSpline
-
+            from .fast.detlinalg import cubic_spline_not_a_knot
+            from .fast.setupmath import row_sum
             from .potential_energy import pair_stiffness_raw
 
+            # scipy's CubicSpline (not-a-knot) solved in a fixed order: LAPACK's banded
+            # solver rounds differently from one BLAS kernel to another
             xi = np.linspace(0.0, L, N_SPLINE)
-            cubic = CubicSpline(xi, pair_stiffness_raw(p, g, xi)).c[::-1].T.copy()
+            cubic = cubic_spline_not_a_knot(xi, pair_stiffness_raw(p, g, xi))
             h = xi[1] - xi[0]
             # Time mean of the total: (1/pb) * integral_0^L k dxi (see below), exact here.
-            mean = float(np.sum(cubic @ (h ** np.arange(1, 5) / np.arange(1, 5)))
-                         / g.base_pitch)
+            c0, c1, c2, c3 = cubic.T
+            mean = row_sum(((c3 * (h / 4.0) + c2 / 3.0) * h + c1 / 2.0) * h * h + c0 * h) \
+                / g.base_pitch
             if spec.scale_to_mean:
                 cubic *= p.km_mean / mean
                 mean = p.km_mean
-            return cls(spec.kind, xi, np.r_[cubic[:, 0], cubic[-1] @ h ** np.arange(4)],
+            c0, c1, c2, c3 = cubic[-1]
+            return cls(spec.kind, xi, np.r_[cubic[:, 0], ((c3 * h + c2) * h + c1) * h + c0],
                        mean, cubic)
+        from .fast.setupmath import trapezoid  # summed in a fixed order
+
         if spec.scale_to_mean:
             # Time mean of the total is (1/pb) * integral_0^L k dxi: over n_pairs base
             # pitches each of the n_pairs tracked pairs sweeps the path once.
-            mean = np.trapezoid(k, xi) / g.base_pitch
+            mean = trapezoid(k, xi) / g.base_pitch
             k = k * (p.km_mean / mean)
-        mean = float(np.trapezoid(k, xi) / g.base_pitch)
+        mean = float(trapezoid(k, xi) / g.base_pitch)
         return cls(spec.kind, xi, k, mean)
 
     def pairs(self, xi: np.ndarray, n_in_contact: int) -> np.ndarray:

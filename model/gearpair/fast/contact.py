@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from ..jitcache import jit, jit_hot
+from . import detmath as dm  # exp, tanh: the same bits on every CPU, not the C library's
 from .layout import (
     FR_NOMINAL,
     FR_REG,
@@ -248,7 +249,7 @@ def sliding_mu(par, v):
     if par[P_VS] == 0.0:
         return par[P_MU]
     r = v / par[P_VS]
-    return par[P_MU] + (par[P_MUS] - par[P_MU]) * math.exp(-(r * r))
+    return par[P_MU] + (par[P_MUS] - par[P_MU]) * dm.exp(-(r * r))
 
 
 @jit_hot
@@ -283,7 +284,7 @@ def friction_forces(md, wk, pc, s, s_idx, y, dirs, stuck):
             # pitch-point boundary nom is a rounding error from zero, its sign maybe the old)
             f = mu * abs(normal) * sgn(nom - speed * (1.0 + mp[P_RATIO]) * (s_idx - s), 0.0)
         elif fric == FR_REG:
-            f = sliding_mu(mp, v) * abs(normal) * math.tanh(v / mp[P_VEPS])
+            f = sliding_mu(mp, v) * abs(normal) * dm.tanh(v / mp[P_VEPS])
         elif fric == FR_STICK:
             if stuck[j] != 0:
                 pw[W_STK, i] = 1.0

@@ -123,6 +123,7 @@ from .layout import (
 )
 from .loop import eval_entry, outputs_entry, reset_entry, run_grid_entry
 from .native import compiled, handoff_table, step_entry, step_lti_entry
+from .setupmath import row_sum
 from .tableaux import METHOD_CODE, RK_NK
 
 _new = tuple.__new__
@@ -561,9 +562,11 @@ class FastEngine(Engine):
         self._now()
         sc, y = self._wk.scal, self._hs.y
         q, qd = y[:N_Q], y[N_Q:2 * N_Q]
-        stored = 0.5 * qd @ m.M @ qd + 0.5 * q @ m.Kb @ q \
-            + 0.5 * sc[S_KM] * sc[S_COMP] ** 2 \
-            + 0.5 * m.p.kr2 * ((y[U2] - y[Y_A]) ** 2 - y[U2] ** 2)
+        # M and Kb are diagonal; summed in a fixed order (a BLAS dot product's order
+        # depends on its kernel)
+        stored = 0.5 * row_sum(np.diag(m.M) * qd * qd) + 0.5 * row_sum(np.diag(m.Kb) * q * q) \
+            + 0.5 * sc[S_KM] * sc[S_COMP] * sc[S_COMP] \
+            + 0.5 * m.p.kr2 * ((y[U2] - y[Y_A]) * (y[U2] - y[Y_A]) - y[U2] * y[U2])
         return {"stored": float(stored), "input": float(y[12]), "damping": float(y[13]),
                 "friction": float(y[14]), "parametric": float(y[15])}
 

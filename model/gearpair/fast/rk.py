@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 from ..jitcache import jit, jit_hot
+from . import detmath as dm  # pow: the same bits on every CPU, not the C library's
 from .contact import next_knot_dt, rhs
 from .layout import (
     I_IX,
@@ -109,7 +110,7 @@ def initial_step(md, wk, pc, hs, f0, t_lim):
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / RK_Q[md.flag[I_METHOD]])
+        h1 = dm.pow(0.01 / max(d1, d2), 1.0 / RK_Q[md.flag[I_METHOD]])
     return min(100.0 * h0, h1, mp[P_MAXSTEP])
 
 
@@ -165,7 +166,7 @@ def next_h(md, err, h, sp, rejected):
     # falls by up to 6 % (interleaved A/B). 0.7 costs more at tight rtol.
     hh = sp.hh
     if err <= 1.0:
-        fac = 10.0 if err == 0.0 else min(10.0, 0.8 * err ** expo)
+        fac = 10.0 if err == 0.0 else min(10.0, 0.8 * dm.pow(err, expo))
         if rejected:
             fac = min(1.0, fac)
         if (sp.last or sp.at_knot) and hh < h:
@@ -174,7 +175,7 @@ def next_h(md, err, h, sp, rejected):
         else:
             h = hh * fac
         return h
-    return hh * max(0.2, 0.8 * err ** expo)
+    return hh * max(0.2, 0.8 * dm.pow(err, expo))
 
 
 @jit_hot

@@ -6,6 +6,11 @@ engine computed them before its split into a package. Every value must be reprod
 (``np.array_equal``, NaN equal to NaN): a refactoring that changes one bit of one trajectory
 fails here. A change of the trajectories that is intended regenerates the file with the
 command in make_golden.py's docstring, and its commit says why.
+
+Bit for bit holds on every x86-64 machine, whatever its BLAS kernel and C library paths: the
+model's set-up and the engine call no BLAS, LAPACK or C-library elementary function
+(`gearpair.fast.detmath`, `detlinalg`, `setupmath`); tests/test_same_bits.py runs cases under
+other kernels, math paths and CPU targets.
 """
 
 from __future__ import annotations

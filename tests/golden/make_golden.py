@@ -196,6 +196,10 @@ def hard_cases() -> list[GoldenCase]:
         ("exact_comm_steps_varying", schedule(varying(), TR, W10), p, exact_c),
         ("exact_contact_loss_reimpact", schedule(uniform(5e-4, 0.02), 1000.0, 250.0), p,
          exact_r),
+        # mesh resonance with impacts on both flanks: a last-bit difference grows through
+        # the impacts, so this is where machines that round differently part first (#32)
+        ("resonance_backlash_5000rpm", schedule(uniform(1e-4, 0.02), 1000.0, 5000.0 * RPM), p,
+         Effects(friction="nominal", stiffness="rectangular", backlash=5e-5)),
         ("exact_reversals_backlash",
          schedule(u1, lambda t: TR * math.cos(2.0 * math.pi * 20.0 * t), W10), p,
          replace(exact_r, backlash=1e-4)),

@@ -207,7 +207,9 @@ def test_back_flank_is_reported_as_contact_not_loss(capsys):
     assert main(["simulate", "examples/scenes/torque_reversal_backlash.toml", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["contact_loss_ratio"] == 0.0
-    assert out["back_contact_ratio"] == 1.0
+    # every step on the back flank; each step's fraction is a difference of accumulated
+    # times over the step, so the mean is 1 to rounding, not always exactly
+    assert out["back_contact_ratio"] == pytest.approx(1.0, abs=1e-12)
     assert out["mesh_force_n"]["mean"] < -30e3  # the back flanks carry the load
 
 

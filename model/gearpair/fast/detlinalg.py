@@ -494,134 +494,164 @@ def _sign(a, b):
     return abs(a) if b >= 0.0 else -abs(a)
 
 
+@jit_hot
+def _small_subdiagonal(a, nn, anorm):
+    """The largest lo <= nn whose subdiagonal a[lo, lo-1] is negligible against its
+    neighbours' diagonal (set to zero), or 1: the active block is a[lo:nn+1, lo:nn+1]."""
+    lo = nn
+    while lo >= 2:
+        s = abs(a[lo - 1, lo - 1]) + abs(a[lo, lo])
+        if s == 0.0:
+            s = anorm
+        if abs(a[lo, lo - 1]) + s == s:
+            a[lo, lo - 1] = 0.0
+            break
+        lo -= 1
+    return lo
+
+
+@jit_hot
+def _deflate_pair(a, nn, t, wr, wi):
+    """The two eigenvalues of the trailing 2 x 2 block a[nn-1:nn+1, nn-1:nn+1] plus shift t."""
+    x, y = a[nn, nn], a[nn - 1, nn - 1]
+    w = a[nn, nn - 1] * a[nn - 1, nn]
+    p = 0.5 * (y - x)
+    q = p * p + w
+    z = math.sqrt(abs(q))
+    x += t
+    wi[nn - 1] = 0.0
+    wi[nn] = 0.0
+    if q >= 0.0:  # real pair
+        z = p + _sign(z, p)
+        wr[nn - 1] = x + z
+        wr[nn] = x + z
+        if z != 0.0:
+            wr[nn] = x - w / z
+    else:  # complex pair
+        wr[nn - 1] = x + p
+        wr[nn] = x + p
+        wi[nn - 1] = -z
+        wi[nn] = z
+
+
+@jit_hot
+def _double_shift_start(a, lo, nn, x, y, w):
+    """Where the double-shift sweep starts (m) and the first column (p, q, r) of the shifted
+    product: the lowest m >= lo at which two consecutive subdiagonals are small enough."""
+    m = nn - 2
+    p = q = r = 0.0
+    while m >= lo:
+        z = a[m, m]
+        r = x - z
+        s = y - z
+        p = (r * s - w) / a[m + 1, m] + a[m, m + 1]
+        q = a[m + 1, m + 1] - z - r - s
+        r = a[m + 2, m + 1]
+        s = abs(p) + abs(q) + abs(r)
+        p /= s
+        q /= s
+        r /= s
+        if m == lo:
+            break
+        u = abs(a[m, m - 1]) * (abs(q) + abs(r))
+        v = abs(p) * (abs(a[m - 1, m - 1]) + abs(z) + abs(a[m + 1, m + 1]))
+        if u + v == v:
+            break
+        m -= 1
+    return m, p, q, r
+
+
+@jit_hot
+def _reflect(a, k, lo, nn, p, q, r, s):
+    """Apply the Householder reflector of column k, (p, q, r) with norm s, from the left to
+    rows k..k+2 and from the right to columns k..k+2 of the active block."""
+    p += s
+    x, y, z = p / s, q / s, r / s
+    q /= p
+    r /= p
+    for j in range(k, nn + 1):
+        v = a[k, j] + q * a[k + 1, j]
+        if k != nn - 1:
+            v += r * a[k + 2, j]
+            a[k + 2, j] -= v * z
+        a[k + 1, j] -= v * y
+        a[k, j] -= v * x
+    last = nn if nn < k + 3 else k + 3
+    for i in range(lo, last + 1):
+        v = x * a[i, k] + y * a[i, k + 1]
+        if k != nn - 1:
+            v += z * a[i, k + 2]
+            a[i, k + 2] -= v * r
+        a[i, k + 1] -= v * q
+        a[i, k] -= v
+
+
+@jit_hot
+def _double_shift_sweep(a, lo, m, nn, p, q, r):
+    """One Francis double-shift QR sweep over rows m..nn: chase the bulge down with
+    3 x 3 Householder reflectors."""
+    for i in range(m + 2, nn + 1):
+        a[i, i - 2] = 0.0
+        if i != m + 2:
+            a[i, i - 3] = 0.0
+    for k in range(m, nn):
+        x = 0.0
+        if k != m:
+            p, q = a[k, k - 1], a[k + 1, k - 1]
+            r = a[k + 2, k - 1] if k != nn - 1 else 0.0
+            x = abs(p) + abs(q) + abs(r)
+            if x != 0.0:
+                p /= x
+                q /= x
+                r /= x
+        s = _sign(math.sqrt(p * p + q * q + r * r), p)
+        if s == 0.0:
+            continue
+        if k == m:
+            if lo != m:
+                a[k, k - 1] = -a[k, k - 1]
+        else:
+            a[k, k - 1] = -s * x
+        _reflect(a, k, lo, nn, p, q, r, s)
+
+
 @jit
 def hqr_1(a, n, wr, wi):
     """Eigenvalues (wr + i wi, 1-based) of the upper Hessenberg a[1:n+1, 1:n+1] (destroyed)
-    by Francis double-shift QR (EISPACK hqr, Numerical Recipes' form). Returns OK or
-    NO_CONVERGENCE."""
+    by Francis double-shift QR with deflation (the classical EISPACK hqr scheme: exceptional
+    shifts after 10 and 20 iterations). Returns OK or NO_CONVERGENCE."""
     anorm = 0.0
     for i in range(1, n + 1):
         for j in range(max(i - 1, 1), n + 1):
             anorm += abs(a[i, j])
-    nn = n
-    t = 0.0
+    nn, t, its = n, 0.0, 0
     while nn >= 1:
-        its = 0
-        while True:
-            lo = nn
-            while lo >= 2:
-                s = abs(a[lo - 1, lo - 1]) + abs(a[lo, lo])
-                if s == 0.0:
-                    s = anorm
-                if abs(a[lo, lo - 1]) + s == s:
-                    a[lo, lo - 1] = 0.0
-                    break
-                lo -= 1
-            x = a[nn, nn]
-            if lo == nn:  # one root found
-                wr[nn] = x + t
-                wi[nn] = 0.0
-                nn -= 1
-            else:
-                y = a[nn - 1, nn - 1]
-                w = a[nn, nn - 1] * a[nn - 1, nn]
-                if lo == nn - 1:  # two roots found
-                    p = 0.5 * (y - x)
-                    q = p * p + w
-                    z = math.sqrt(abs(q))
-                    x += t
-                    if q >= 0.0:
-                        z = p + _sign(z, p)
-                        wr[nn - 1] = x + z
-                        wr[nn] = x + z
-                        if z != 0.0:
-                            wr[nn] = x - w / z
-                        wi[nn - 1] = 0.0
-                        wi[nn] = 0.0
-                    else:
-                        wr[nn - 1] = x + p
-                        wr[nn] = x + p
-                        wi[nn - 1] = -z
-                        wi[nn] = z
-                    nn -= 2
-                else:
-                    if its == MAX_QR_ITS:
-                        return NO_CONVERGENCE
-                    if its == 10 or its == 20:  # exceptional shift
-                        t += x
-                        for i in range(1, nn + 1):
-                            a[i, i] -= x
-                        s = abs(a[nn, nn - 1]) + abs(a[nn - 1, nn - 2])
-                        x = 0.75 * s
-                        y = x
-                        w = -0.4375 * s * s
-                    its += 1
-                    m = nn - 2
-                    p = q = r = 0.0
-                    while m >= lo:
-                        z = a[m, m]
-                        r = x - z
-                        s = y - z
-                        p = (r * s - w) / a[m + 1, m] + a[m, m + 1]
-                        q = a[m + 1, m + 1] - z - r - s
-                        r = a[m + 2, m + 1]
-                        s = abs(p) + abs(q) + abs(r)
-                        p /= s
-                        q /= s
-                        r /= s
-                        if m == lo:
-                            break
-                        u = abs(a[m, m - 1]) * (abs(q) + abs(r))
-                        v = abs(p) * (abs(a[m - 1, m - 1]) + abs(z) + abs(a[m + 1, m + 1]))
-                        if u + v == v:
-                            break
-                        m -= 1
-                    for i in range(m + 2, nn + 1):
-                        a[i, i - 2] = 0.0
-                        if i != m + 2:
-                            a[i, i - 3] = 0.0
-                    for k in range(m, nn):
-                        if k != m:
-                            p = a[k, k - 1]
-                            q = a[k + 1, k - 1]
-                            r = 0.0
-                            if k != nn - 1:
-                                r = a[k + 2, k - 1]
-                            x = abs(p) + abs(q) + abs(r)
-                            if x != 0.0:
-                                p /= x
-                                q /= x
-                                r /= x
-                        s = _sign(math.sqrt(p * p + q * q + r * r), p)
-                        if s != 0.0:
-                            if k == m:
-                                if lo != m:
-                                    a[k, k - 1] = -a[k, k - 1]
-                            else:
-                                a[k, k - 1] = -s * x
-                            p += s
-                            x = p / s
-                            y = q / s
-                            z = r / s
-                            q /= p
-                            r /= p
-                            for j in range(k, nn + 1):
-                                p = a[k, j] + q * a[k + 1, j]
-                                if k != nn - 1:
-                                    p += r * a[k + 2, j]
-                                    a[k + 2, j] -= p * z
-                                a[k + 1, j] -= p * y
-                                a[k, j] -= p * x
-                            mmin = nn if nn < k + 3 else k + 3
-                            for i in range(lo, mmin + 1):
-                                p = x * a[i, k] + y * a[i, k + 1]
-                                if k != nn - 1:
-                                    p += z * a[i, k + 2]
-                                    a[i, k + 2] -= p * r
-                                a[i, k + 1] -= p * q
-                                a[i, k] -= p
-            if not (lo < nn - 1):
-                break
+        lo = _small_subdiagonal(a, nn, anorm)
+        if lo == nn:  # one root found
+            wr[nn] = a[nn, nn] + t
+            wi[nn] = 0.0
+            nn -= 1
+            its = 0
+        elif lo == nn - 1:  # two roots found
+            _deflate_pair(a, nn, t, wr, wi)
+            nn -= 2
+            its = 0
+        else:
+            if its == MAX_QR_ITS:
+                return NO_CONVERGENCE
+            x, y = a[nn, nn], a[nn - 1, nn - 1]
+            w = a[nn, nn - 1] * a[nn - 1, nn]
+            if its == 10 or its == 20:  # exceptional shift
+                t += x
+                for i in range(1, nn + 1):
+                    a[i, i] -= x
+                s = abs(a[nn, nn - 1]) + abs(a[nn - 1, nn - 2])
+                x = 0.75 * s
+                y = x
+                w = -0.4375 * s * s
+            its += 1
+            m, p, q, r = _double_shift_start(a, lo, nn, x, y, w)
+            _double_shift_sweep(a, lo, m, nn, p, q, r)
     return OK
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..jitcache import jit, jit_hot
 from .contact import flank_compression, n_events, pair_k, pair_xi, rhs, solve_small
+from .detlinalg import balance_n
 from .events import events_at, falls, illinois, illinois_point, record_force
 from .extremes import evaluated_terms, exact_terms, stretch_extremes
 from .layout import (
@@ -79,37 +80,7 @@ def matvec(P, z, out):
 @jit
 def balance(X, d):
     """X <- D^-1 X D with D = diag(d), powers of two (LAPACK gebal without permutations)."""
-    for i in range(NZ):
-        d[i] = 1.0
-    for _sweep in range(30):
-        done = True
-        for i in range(NZ):
-            c = 0.0
-            r = 0.0
-            for j in range(NZ):
-                if j != i:
-                    c += abs(X[j, i])
-                    r += abs(X[i, j])
-            if c == 0.0 or r == 0.0:
-                continue
-            s0 = c + r
-            f = 1.0
-            while c < 0.5 * r:
-                c *= 2.0
-                r *= 0.5
-                f *= 2.0
-            while c >= 2.0 * r:
-                c *= 0.5
-                r *= 2.0
-                f *= 0.5
-            if c + r < 0.95 * s0:
-                done = False
-                d[i] *= f
-                for j in range(NZ):
-                    X[i, j] /= f
-                    X[j, i] *= f
-        if done:
-            break
+    balance_n(X, NZ, d)
 
 
 @jit

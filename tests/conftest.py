@@ -22,7 +22,8 @@ def _build_module():
 # collection order: the files with the longest tests (a compile of the whole engine in fresh
 # caches, the killed sweep client, the bench's quick run, reference-engine runs) go first,
 # so that no worker is left running one of them while the other has nothing to do.
-LONG_FILES = ("test_fmu_start.py", "test_sweep_grid.py", "test_core.py", "test_bench.py",
+LONG_FILES = ("test_fmu_start.py", "test_same_bits.py", "test_sweep_grid.py", "test_core.py",
+              "test_detmath.py", "test_bench.py",
               "test_static_friction.py", "test_effects.py", "test_fast_engine.py")
 
 

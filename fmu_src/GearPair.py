@@ -648,6 +648,10 @@ class GearPair(Fmi2Slave):
                 if not self._restore_engine(saved):
                     return self._error(msg + "; the engine state could not be restored, "
                                        "further steps are refused")
+                if isinstance(e, self._gp.engine.RunFailure):
+                    # a missed contact event or an unbounded response (issue 38): the
+                    # result cannot be trusted and a shorter step does not change that
+                    return self._error(msg + "; the state is that of the step start")
                 # fmi2Discard: the state is that of the step start (lastSuccessfulTime)
                 self.log(msg + "; the state is that of the step start", Fmi2Status.discard)
                 return False

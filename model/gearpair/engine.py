@@ -26,6 +26,38 @@ CONTACT_STICK = 2
 CONTACT_BACK = 3  # back flanks in contact (Effects.backlash)
 
 
+class RunFailure(ValueError):
+    """A run stopped because its result cannot be trusted (issue 38): a contact event was
+    missed (the contact state and the geometry disagree after a step), or the DTE left its
+    physical bound (`Model.dte_bound`). Both engines raise it with `run_failure_message`;
+    the FMU answers the step with fmi2Error and this message, a sweep stores the point as
+    ``invalid`` with it."""
+
+
+# What a flank (separation) function exactly at zero at the start of a piece is taken as, in
+# both engines: the least normal double, so that a fall below zero right after it counts
+# (an event function must fall from > 0 to <= 0; the event that ended the last piece can
+# leave the DTE at exactly 0.0, and a re-contact microseconds later went unnoticed)
+G_START = 2.2250738585072014e-308
+
+# the engines' contact codes (0 drive flanks, 1 apart, 2 back flanks) in words
+FLANK_STATE = ("on the drive flanks", "apart (no flank in contact)", "on the back flanks")
+
+
+def run_failure_message(kind: str, t: float, cs: int, dte: float, bound: float) -> str:
+    """The message of a `RunFailure`: ``kind`` "missed" or "unbounded", at time t (s), in
+    contact code ``cs`` (0, 1, 2), with the DTE (m) and the compression bound (m) there."""
+    where = (f"at t = {t:.9g} s the teeth are {FLANK_STATE[cs]} with DTE = {dte:.6g} m")
+    if kind == "missed":
+        return (f"missed contact event: {where}, which the geometry contradicts (a flank in "
+                "tension or overlapping flanks apart); the run is stopped rather than "
+                "continued with teeth passing through each other (docs/limits.md)")
+    return (f"unbounded response: {where}, a flank compressed by more than its physical "
+            f"bound {bound:.4g} m (0.1 module plus 20 static deflections under the torque): "
+            "the teeth would pass through each other; often a "
+            "parametric instability of the model at this operating point (docs/limits.md)")
+
+
 @dataclass(frozen=True)
 class Outputs:
     """Instantaneous outputs at the engine's current time (SI).

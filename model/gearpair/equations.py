@@ -82,6 +82,28 @@ class Model:
         b = self.effects.backlash
         return math.inf if b is None else float(b)
 
+    # The physical bound of the DTE (`dte_bound`): a flank compressed by more than a tenth of
+    # the module (a tooth is some 1.6 modules thick at its pitch circle: far outside the
+    # model's small-deflection validity) plus DTE_BOUND_STATIC static deflections under the
+    # step's torque (so that a large load keeps its margin)
+    DTE_BOUND_MODULE = 0.1
+    DTE_BOUND_STATIC = 20.0
+
+    def dte_bound(self) -> tuple[float, float]:
+        """(c0 in m, c1 in m/(N.m)): a run stops when a flank would be compressed by more
+        than c0 + c1 |torque|, i.e. DTE > c0 + c1 |T| (drive flank), or, with a back flank,
+        DTE < -(b + c0 + c1 |T|) (issue 38).
+
+        c0 is ``DTE_BOUND_MODULE`` modules; c1 is ``DTE_BOUND_STATIC`` times the static
+        deflection per unit torque at the mean mesh stiffness, 1 / (rb1 km_mean). Past it
+        the teeth pass through each other: an unbounded response, often a parametric
+        instability of the model itself, which the engines report instead of integrating
+        on. Without a back flank (the paper's model) a negative DTE has no bound: a negative
+        torque parts the teeth for good, which is the model's answer, not a failure.
+        """
+        return (self.DTE_BOUND_MODULE * self.p.module,
+                self.DTE_BOUND_STATIC / (self.rb1 * self.stiff.km_mean))
+
     @property
     def torsional(self) -> bool:
         """Only u1, u2 are integrated (rigid supports)."""

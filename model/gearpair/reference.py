@@ -29,10 +29,13 @@ from .engine import (
     CONTACT_SEPARATED,
     CONTACT_SLIP,
     CONTACT_STICK,
+    G_START,
     Engine,
     Outputs,
+    RunFailure,
     StepSummary,
     check_inputs,
+    run_failure_message,
 )
 from .equations import U1, U2, G, Model, evaluate
 from .params import GearParams, check_rtol
@@ -58,6 +61,28 @@ _GL3_W = np.array([5.0, 8.0, 5.0]) / 18.0
 _SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(N_E, 1.0), 1e-5, 1e-3]
 
 
+def _past_root(g, lo: float, hi: float) -> float:
+    """The event time of a function g that falls from g(lo) > 0 to g(hi) <= 0: a point at
+    most a few root tolerances past its root, where g <= 0 already (as the fast engine's
+    right end of the bracket). brentq's root may lie on either side, and a state left on
+    the old side starts the next piece with its new function below zero (issue 38)."""
+    te = brentq(g, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+    step = 4.0 * (1e-15 + 4 * np.finfo(float).eps * abs(te))
+    if g(te) <= 0.0:
+        return te
+    lo = te
+    c = te + step
+    if c < hi and g(c) <= 0.0:
+        return c
+    while hi - lo > step:  # bisect, keeping the end where g has fallen
+        mid = 0.5 * (lo + hi)
+        if g(mid) <= 0.0:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
 class ReferenceEngine(Engine):
     """scipy-based engine implementing the `Engine` contract.
 
@@ -81,6 +106,7 @@ class ReferenceEngine(Engine):
             raise ValueError(f"method = {method!r}; choose one of {', '.join(METHODS)}")
         check_rtol(rtol)
         self.model = Model.build(params, effects)
+        self._dte_bound = self.model.dte_bound()
         self._prev_active = None  # pairs in contact in the last segment (set by reset)
         self._released = None  # (pair, time) of the last release of a stick
         self.rtol = rtol
@@ -363,6 +389,9 @@ class ReferenceEngine(Engine):
             return event_values(m, ev, mode, active), ev
 
         g_prev, ev0 = values(t0, self.y)
+        due = self._start_flanks(g_prev, labels, ev0)
+        if due is not None:
+            return self._switch_now(labels[due], active, mode, ev0)
         # A known boundary can invalidate a stick at once (the entering pair takes load, so
         # mu f_mesh drops below the static friction): release it before integrating.
         for i, (kind, j) in enumerate(labels):
@@ -431,7 +460,7 @@ class ReferenceEngine(Engine):
                     if gi(t_lo) <= 0.0:
                         te = t_lo
                     else:
-                        te = brentq(gi, t_lo, tk, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+                        te = _past_root(gi, t_lo, tk)
                     if te < best_t:
                         best_t, best_i = te, int(i)
                 te = best_t
@@ -454,6 +483,7 @@ class ReferenceEngine(Engine):
                 self.y = ye.copy()
                 self.y[N_Q:2 * N_Q] = qd
                 return 1, n_steps, fmax, fmin, fint
+            self._guard(tc, g_prev, labels, evk, solver.y)
             fmax, fmin = self._step_extremes(force, t_seen, f_seen, fmax, fmin)
             f_start = f_seen[-1]
             fint += self._mesh_force_integral(sol, ta, tc, active, mode, t0, s0)
@@ -463,6 +493,57 @@ class ReferenceEngine(Engine):
                 self.s = s0 + m.p.rb1 * self.speed * (tb - t0)
                 self.t = tb
                 return 0, n_steps, fmax, fmin, fint
+
+    def _noise(self, y, off: int) -> float:
+        """What rounding alone puts into the DTE (off 0) or its rate (off N_Q)."""
+        return 64.0 * np.finfo(float).eps * float(np.abs(G) @ np.abs(y[off:off + N_Q]))
+
+    def _start_flanks(self, g, labels, ev) -> int | None:
+        """The flank functions at the start of a piece (as the fast engine's
+        `events.start_flanks`): the index of one whose switch is due now (below zero beyond
+        rounding, or at zero and falling), else None; one at zero and rising is set to
+        `G_START` in g, so that a fall right after it counts."""
+        tol, rtol = self._noise(self.y, 0), self._noise(self.y, N_Q)
+        for i, (kind, _j) in enumerate(labels):
+            if kind == "pair":
+                continue
+            if g[i] < -tol:
+                return i
+            if g[i] <= 0.0:
+                # +DTE (drive flank in contact; back-flank gap while apart), else -DTE
+                sign = 1.0 if (kind == "sep" and not self.mode.separated) or \
+                    (kind == "back" and not self.mode.back) else -1.0
+                r = sign * ev.ddelta
+                if r > rtol:
+                    g[i] = G_START
+                elif r < -rtol:
+                    return i
+        return None
+
+    def _switch_now(self, label, active, mode: Mode, ev0) -> tuple:
+        """Apply a flank switch due at the start of a piece (`_integrate_segment`)."""
+        m = self.model
+        self.mode, qd = switch(m, label, self.s, self.y[:N_Q], self.y[N_Q:2 * N_Q],
+                               self.torque, self.speed, active, mode)
+        self.y = self.y.copy()
+        self.y[N_Q:2 * N_Q] = qd
+        return 1, 0, ev0.mesh_force, ev0.mesh_force, 0.0
+
+    def _guard(self, t: float, g, labels, ev, y) -> None:
+        """The check after every accepted step (as the fast engine's `events.flank_guard`):
+        no flank function below zero without a fall seen, and |DTE| within its bound
+        (`Model.dte_bound`), at the step's end (time t, state y, evaluation ev); raises
+        `RunFailure` otherwise."""
+        cs = 2 if self.mode.back else 1 if self.mode.separated else 0
+        b0, b1 = self._dte_bound
+        bound = b0 + b1 * abs(self.torque)
+        tol = self._noise(y, 0)
+        for i, (kind, _j) in enumerate(labels):
+            if kind != "pair" and g[i] < -tol:
+                raise RunFailure(run_failure_message("missed", t, cs, ev.delta, bound))
+        back = math.isfinite(self.model.backlash)
+        if not ev.delta <= bound or (back and not ev.delta >= -self.model.backlash - bound):
+            raise RunFailure(run_failure_message("unbounded", t, cs, ev.delta, bound))
 
     def _book(self, ta, tb, mode: Mode):
         if mode.back:  # on the back flank: contact, not contact loss

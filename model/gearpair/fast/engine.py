@@ -15,9 +15,11 @@ from ..engine import (
     RECORDED_FIGURES,
     Engine,
     Outputs,
+    RunFailure,
     StepSummary,
     check_inputs,
     grid_inputs,
+    run_failure_message,
 )
 from ..equations import U2, Model
 from ..params import GearParams, check_rtol
@@ -70,12 +72,17 @@ from .layout import (
     N_ST,
     N_Y,
     NZ,
+    O_BFAIL,
+    O_CFAIL,
+    O_DFAIL,
     O_NREJ,
     O_STATUS,
     O_TFAIL,
     P_BACK,
     P_C,
     P_CM,
+    P_DB0,
+    P_DB1,
     P_DX,
     P_INVDX,
     P_IPER,
@@ -105,7 +112,9 @@ from .layout import (
     S_COMP,
     S_KM,
     STATUS_EVENTS,
+    STATUS_MISSED,
     STATUS_STEP,
+    STATUS_UNBOUNDED,
     T_BACK,
     T_H,
     T_LAST0,
@@ -212,6 +221,7 @@ def model_constants(m: Model, rtol: float, max_step: float, t_tol: float) -> np.
     mp[P_RTOL], mp[P_MAXSTEP], mp[P_TTOL] = rtol, max_step, float(t_tol)
     mp[P_BACK] = 0.0 if fx.backlash is None else float(fx.backlash)
     mp[P_MUS], mp[P_VS] = m.mu_static, m.stribeck_velocity
+    mp[P_DB0], mp[P_DB1] = m.dte_bound()
     return mp
 
 
@@ -498,6 +508,10 @@ class FastEngine(Engine):
         if status == STATUS_STEP:
             raise ArithmeticError(
                 f"Runge-Kutta step size underflow at t = {out[O_TFAIL]:.9g} s")
+        if status in (STATUS_MISSED, STATUS_UNBOUNDED):
+            raise RunFailure(run_failure_message(
+                "missed" if status == STATUS_MISSED else "unbounded", out[O_TFAIL],
+                int(out[O_CFAIL]), out[O_DFAIL], out[O_BFAIL]))
 
     def warm_up(self) -> None:
         """Load the compiled recorder of `run` (from the on-disk cache; the first call in a

@@ -14,12 +14,14 @@ import math
 
 import numpy as np
 
+from ..engine import G_START
 from ..jitcache import jit, jit_hot
 from .contact import (
     evaluate,
     event_values,
     flank_compression,
     n_events,
+    n_sep_events,
     pair_k,
     pair_v,
     pair_xi,
@@ -28,15 +30,24 @@ from .contact import (
 )
 from .layout import (
     FR_STICK,
+    I_BACK,
     I_FRIC,
     I_IX,
     I_METHOD,
     I_NIX,
     J_REL,
     N_Y,
+    O_BFAIL,
+    O_CFAIL,
+    O_DFAIL,
     O_FINT,
     O_FMAX,
     O_FMIN,
+    O_STATUS,
+    O_TFAIL,
+    P_BACK,
+    P_DB0,
+    P_DB1,
     P_RB1,
     P_SPACING,
     P_TTOL,
@@ -44,6 +55,9 @@ from .layout import (
     R_GSAVE,
     S_COMP,
     S_KM,
+    STATUS_MISSED,
+    STATUS_OK,
+    STATUS_UNBOUNDED,
     T_REL,
     T_S,
 )
@@ -153,6 +167,84 @@ def events_light(md, wk, pc, hs, t, yk, g):
         xi = pair_xi(mp, s, act[i])
         km += pair_k(md, xi, xi, pc.nact)
     return km * flank_compression(mp, delta, sep)
+
+
+@jit_hot
+def dte_of(y):
+    """The dynamic transmission error (m) of the state y (`contact` module: delta)."""
+    return y[1] - y[4] + y[2] + y[5]
+
+
+@jit_hot
+def dte_noise(y, off):
+    """What rounding alone can put into the DTE (``off`` 0) or its rate (``off`` 6) of the
+    state y: 64 ulp of the terms summed. Values within it are taken as zero."""
+    return 64.0 * EPS * (abs(y[off + 1]) + abs(y[off + 4]) + abs(y[off + 2]) + abs(y[off + 5]))
+
+
+@jit_hot
+def flank_sign(cs, e):
+    """+1 where separation function e of contact code cs is +DTE (+ b), -1 where -DTE."""
+    return 1.0 if cs == 0 or e == 1 else -1.0
+
+
+@jit_hot
+def start_flanks(md, pc, g, y):
+    """The separation functions (flank contact, ``g[:n_sep_events]``) at the start of a
+    piece, from state y: returns the first whose switch is due now (below zero beyond
+    rounding, where the state contradicts the geometry; or at zero and falling), else -1.
+
+    A function at zero (to rounding) and rising is taken as `engine.G_START`, the least
+    positive normal value, so that a fall right after it counts: with 0 as the previous
+    value no fall would ever count (the event that ended the last piece can leave the DTE
+    at exactly 0.0, and a re-contact microseconds later went unnoticed: issue 38). One at
+    zero and at rest (no load, nothing moving) stays as it is: marking it would make
+    rounding noise switch back and forth.
+    """
+    tol, rtol = dte_noise(y, 0), dte_noise(y, 6)
+    rate = y[7] - y[10] + y[8] + y[11]
+    for e in range(n_sep_events(md, pc.cs)):
+        if g[e] < -tol:
+            return e
+        if g[e] <= 0.0:
+            r = flank_sign(pc.cs, e) * rate
+            if r > rtol:
+                g[e] = G_START
+            elif r < -rtol:
+                return e
+    return np.int64(-1)
+
+
+@jit_hot
+def flank_guard(md, wk, pc, hs, t, y):
+    """The check after every accepted step that nothing can skip (issue 38): the contact
+    state agrees with the geometry at its end (``wk.g``: the event values there, with no
+    fall seen), and neither flank is compressed by more than P_DB0 + P_DB1 |torque|
+    (`Model.dte_bound`), at the step's end (time t, state y).
+
+    A separation function below zero (beyond rounding) with no fall seen means a missed
+    event: every piece starts with its functions above zero or at zero and rising
+    (`start_flanks`), so this cannot happen unless something is wrong; the advance then
+    stops (STATUS_MISSED) instead of going on with the teeth overlapping. Returns the
+    status, and records the time, DTE, contact code and bound of a failure in the summary.
+    """
+    mp, summ = md.par, wk.summary
+    status = STATUS_OK
+    d = dte_of(y)
+    tol = dte_noise(y, 0)
+    for e in range(n_sep_events(md, pc.cs)):
+        if wk.g[e] < -tol:
+            status = STATUS_MISSED
+    bound = mp[P_DB0] + mp[P_DB1] * abs(pc.torque)  # the most a flank may be compressed
+    if not (d <= bound) or (md.flag[I_BACK] != 0 and not (d >= -mp[P_BACK] - bound)):
+        status = STATUS_UNBOUNDED
+    if status != STATUS_OK:
+        summ[O_STATUS] = status
+        summ[O_TFAIL] = t
+        summ[O_DFAIL] = d
+        summ[O_CFAIL] = pc.cs
+        summ[O_BFAIL] = bound
+    return status
 
 
 @jit_hot

@@ -24,8 +24,9 @@ import numpy as np
 P_MINV, P_C, P_KB = 0, 6, 12  # 6 each: inverse masses, support damping, support stiffness
 (P_RB1, P_RB2, P_RATIO, P_CM, P_MU, P_VEPS, P_S1A, P_S1S2, P_PB, P_L, P_PER, P_XIP, P_KMEAN,
  P_RTOL, P_MAXSTEP, P_TTOL, P_DX, P_INVDX, P_SPACING, P_IRB1, P_IRB2, P_IPER,
- P_BACK, P_MUS, P_VS) = range(18, 43)
-N_MP = 43  # P_MUS: static coefficient mu_static; P_VS: Stribeck velocity (0: none)
+ P_BACK, P_MUS, P_VS, P_DB0, P_DB1) = range(18, 45)
+N_MP = 45  # P_MUS: static coefficient mu_static; P_VS: Stribeck velocity (0: none)
+# P_DB0, P_DB1: the physical bound of |DTE|, P_DB0 + P_DB1 |torque| (m; `Model.dte_bound`)
 # -- ModelData.flag: int flags ----------------------------------------------------------------
 (I_NP, I_KIND, I_VARY, I_SEP, I_FRIC, I_SLIDE, I_TIE, I_NSAMP, I_MAXEV, I_NTAB, I_BACK,
  I_TORS, I_LTI, I_METHOD, I_NIX) = range(15)
@@ -64,10 +65,14 @@ Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held
 N_MI = I_IX + N_Y
 # -- Work.summary: the summary of one advance --------------------------------------------------
 # O_NREJ: rejected steps; O_FINT: time integral of the mesh force over the advance (N s),
-# O_FMIN: its least sample (as O_FMAX the peak)
-O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ, O_FINT, O_FMIN = range(8)
-N_OUT = 8
-STATUS_OK, STATUS_EVENTS, STATUS_STEP = 0, 1, 2
+# O_FMIN: its least sample (as O_FMAX the peak); O_TFAIL, O_DFAIL, O_CFAIL, O_BFAIL: time,
+# DTE, contact code (J_SEP) and DTE bound where the advance failed (O_STATUS)
+(O_FMAX, O_NEV, O_NSTEPS, O_STATUS, O_TFAIL, O_NREJ, O_FINT, O_FMIN, O_DFAIL, O_CFAIL,
+ O_BFAIL) = range(11)
+N_OUT = 11
+# STATUS_MISSED: the contact state and the geometry disagree after a step (`events.
+# flank_guard`); STATUS_UNBOUNDED: the DTE left its physical bound (P_DB0, P_DB1)
+STATUS_OK, STATUS_EVENTS, STATUS_STEP, STATUS_MISSED, STATUS_UNBOUNDED = 0, 1, 2, 3, 4
 N_O = 10  # outputs: dte, mesh, friction, state, out torque, reaction, in torque, w1, w2, v
 # a recorded row: outputs, stick and separation fractions, peak force, events, back-flank
 # fraction, mean and least mesh force over the interval

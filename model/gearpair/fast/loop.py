@@ -28,7 +28,14 @@ from .contact import (
     pair_xi,
     param_rate,
 )
-from .events import events_at, locate_and_switch, record_force, scan_step
+from .events import (
+    events_at,
+    flank_guard,
+    locate_and_switch,
+    record_force,
+    scan_step,
+    start_flanks,
+)
 from .extremes import step_ends, step_extremes
 from .layout import (
     FR_NOMINAL,
@@ -109,6 +116,10 @@ def start_checks(md, wk, pc, hs):
     st, stuck, act, gprev = hs.clock, hs.stuck, wk.active, wk.gprev
     fm = events_at(md, wk, pc, hs, pc.t0, hs.y, gprev)
     record_force(wk.summary, fm)
+    e = start_flanks(md, pc, gprev, hs.y)
+    if e >= 0:  # a flank in tension, or overlapping flanks apart: that switch is due now
+        switch(md, wk, pc, hs, e, pc.s0)
+        return 1
     e0 = n_sep_events(md, pc.cs)
     retest = False
     for e in range(e0, n_events(md, pc.nact, pc.cs)):
@@ -128,6 +139,10 @@ def start_checks(md, wk, pc, hs):
             retest = True
     if retest:
         events_at(md, wk, pc, hs, pc.t0, hs.y, gprev)
+        e = start_flanks(md, pc, gprev, hs.y)  # the rates may have changed
+        if e >= 0:
+            switch(md, wk, pc, hs, e, pc.s0)
+            return 1
     return 0
 
 
@@ -170,7 +185,8 @@ def piece_at(hs, nact):
 @jit_hot
 def piece(md, wk, hs, nact, tb):
     """Integrate one contact state from clock[T_T] towards tb by Runge-Kutta steps; stop at
-    the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure.
+    the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure,
+    -2 when `flank_guard` stops it (its status is in the summary).
     """
     st = hs.clock
     pc = piece_at(hs, nact)
@@ -191,6 +207,8 @@ def piece(md, wk, hs, nact, tb):
             locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit)
             step_extremes(md, wk, pc, hs, sp, nf, ends, (st[T_T] - sp.t) / sp.hh)
             return 1
+        if flank_guard(md, wk, pc, hs, sp.tn, wk.ynew) != STATUS_OK:
+            return -2
         step_extremes(md, wk, pc, hs, sp, nf, ends, 1.0)
         d0 = np.nan if sp.at_knot else ends[3]
         t, t_knot = accept_step(md, wk, pc, hs, sp, h, t_knot, tb)
@@ -275,7 +293,8 @@ def segment(md, wk, hs, tb, lti):
         else:
             r = piece_exact(md, wk, hs, nact, tb)
         if r < 0:
-            summ[O_STATUS] = STATUS_STEP
+            if r == -1:
+                summ[O_STATUS] = STATUS_STEP
             return
         summ[O_NEV] += r
         if summ[O_NEV] > md.flag[I_MAXEV]:

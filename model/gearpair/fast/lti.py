@@ -16,7 +16,15 @@ import numpy as np
 from ..jitcache import jit, jit_hot
 from .contact import flank_compression, n_events, pair_k, pair_xi, rhs, solve_small
 from .detlinalg import balance_n
-from .events import events_at, falls, illinois, illinois_point, record_force
+from .events import (
+    events_at,
+    falls,
+    flank_guard,
+    illinois,
+    illinois_point,
+    record_force,
+    start_flanks,
+)
 from .extremes import evaluated_terms, exact_terms, stretch_extremes
 from .layout import (
     I_TORS,
@@ -34,6 +42,7 @@ from .layout import (
     P_RTOL,
     P_SPACING,
     P_TTOL,
+    STATUS_OK,
     T_S,
     T_T,
     Y_A,
@@ -493,7 +502,7 @@ def lti_substep(md, wk, pc, hs, lp, ks, t, tb):
 @jit_hot
 def lti_march(md, wk, pc, hs, lp, tb):
     """The sub-steps of a piece, each scanned for falls at its end; returns 1 after a
-    switch, 0 on reaching tb."""
+    switch, 0 on reaching tb, -2 when `flank_guard` stops it."""
     z, zn = wk.lti_vecs[0], wk.lti_vecs[1]
     ng = n_events(md, pc.nact, pc.cs)
     t = pc.t0
@@ -515,6 +524,8 @@ def lti_march(md, wk, pc, hs, lp, tb):
                     stretch_extremes(wk.summary, ends, exact_terms(
                         md, wk.lti_mats[lp.slot], zn, lp.km, pc.cs), hs.clock[T_T] - t)
                 return 1
+            if flank_guard(md, wk, pc, hs, tn, wk.ytmp) != STATUS_OK:
+                return -2
             record_force(wk.summary, fm)
             end_terms = evaluated_terms(wk, pc.cs)
             if not jumped:  # a jump is quiet: within rtol of the static force
@@ -547,4 +558,9 @@ def piece_lti(md, wk, pc, hs, tb):
         end_piece(md, pc, hs, tb)
         return 0
     lp = lti_start(md, wk, pc, hs, km, tb)
+    if not lp.quiet:  # (a quiet piece holds its contact: `lti_quiet`)
+        e = start_flanks(md, pc, wk.gprev, hs.y)
+        if e >= 0:  # a flank in tension, or overlapping flanks apart: that switch is due now
+            switch(md, wk, pc, hs, e, pc.s0)
+            return 1
     return lti_march(md, wk, pc, hs, lp, tb)

@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import analysis
 from ..effects import Effects
+from ..engine import RunFailure
 from ..params import RPM, GearParams
 from .settings import SweepSettings, _boundary_phases, outside_validity
 
@@ -174,6 +175,9 @@ def run_point(index: int, name: str | tuple[str, ...], value: float | tuple[floa
             events_per_period=float(r["n_events"].sum() / n_k),
             poincare=[float(x) for x in sec],
         )
+    except RunFailure as exc:  # missed event or unbounded response: not a value to draw,
+        rec["status"] = "invalid"  # and a tighter rtol is not what it needs (issue 38)
+        rec["error"] = f"RunFailure: {exc}"
     except Exception as exc:  # noqa: BLE001 - every failure becomes a reported record
         rec["status"] = "failed"
         rec["error"] = f"{type(exc).__name__}: {exc}"

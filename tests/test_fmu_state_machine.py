@@ -280,3 +280,24 @@ def test_every_value_of_a_refused_call_is_named_and_reset_forgets_them(md, unzip
     g.steps(0.0, 1)
     g.fmu.terminate()
     g.fmu.freeInstance()
+
+
+def test_an_unbounded_response_ends_the_step_with_fmi2error_and_says_why(md, unzipdir):
+    """Issue 38: at 7250 r/min, 10 kN.m and 10 um of backlash the impacts grow without
+    bound (the engines stop near t = 0.026 s). The step where the DTE leaves its bound
+    returns fmi2Error with the engine's message, logged with logging off too; the steps
+    before it are fmi2OK."""
+    g = G(md, unzipdir, "unbounded")
+    g.init(backlash=1e-5, torque=10000.0, speed=7250.0 * 2.0 * math.pi / 60.0)
+    t, ok = 0.0, 0
+    n = len(g.messages)
+    with pytest.raises(FMICallException) as exc:
+        for _ in range(600):
+            g.fmu.doStep(t, 1e-4)
+            t += 1e-4
+            ok += 1
+    assert exc.value.status == fmi2Error
+    assert 0.02 < t < 0.04 and ok > 150
+    errors = [m for s, m in g.messages[n:] if s == fmi2Error]
+    assert errors and "unbounded response" in errors[-1] and "DTE" in errors[-1]
+    g.fmu.freeInstance()

@@ -79,6 +79,19 @@ def test_potential_energy_impacts_with_backlash_stay_in_mesh():
     assert tr.ratios()["contact_loss_ratio"] == pytest.approx(0.33, abs=0.02)
 
 
+def test_exact_propagator_finds_the_recontact_after_a_start_at_zero():
+    """Found by scripts/contact_scan.py (seed 2, run 897): friction off, rectangular law, so
+    the exact propagator runs. A separation at t = 0.8018747 s leaves the DTE at exactly 0;
+    the free flight's flank function starts there, counted as positive, and the regula
+    falsi put its next point on that start (a root itself, where rounding reads -0.0): the
+    state switched back and forth at one instant until the event cap (before the start
+    rule: the re-contact 6 us later was never seen and the DTE reached 54 m)."""
+    p, fx = GearParams(), Effects(friction="off", stiffness="rectangular")
+    tr = run(p, fx, t_end=0.81, torque=186.72924640958536, speed=33.48409152366052,
+             dt=1e-4)
+    assert np.abs(tr["dte"]).max() < 5e-6
+
+
 def test_zero_damping_stick_slip_keeps_contact():
     """Class A with no damping at all (damping_ratio 0): failed at t = 0.0814 s."""
     p = GearParams(damping_ratio=0.0)

@@ -61,6 +61,19 @@ _GL3_W = np.array([5.0, 8.0, 5.0]) / 18.0
 _SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(N_E, 1.0), 1e-5, 1e-3]
 
 
+def _first_positive(g, lo: float, hi: float) -> float | None:
+    """A point of (lo, hi) where g > 0, halving towards lo, or None: a piece that starts
+    with its flank function at zero, taken as positive (`_start_flanks`), has a root at its
+    start, and the fall to locate is the next one."""
+    for _ in range(200):
+        hi = 0.5 * (lo + hi)
+        if not lo < hi:
+            return None
+        if g(hi) > 0.0:
+            return hi
+    return None
+
+
 def _past_root(g, lo: float, hi: float) -> float:
     """The event time of a function g that falls from g(lo) > 0 to g(hi) <= 0: a point at
     most a few root tolerances past its root, where g <= 0 already (as the fast engine's
@@ -457,10 +470,8 @@ class ReferenceEngine(Engine):
                 for i in falls:
                     def gi(t, i=i, sol=sol):
                         return values(t, sol(t))[0][i]
-                    if gi(t_lo) <= 0.0:
-                        te = t_lo
-                    else:
-                        te = _past_root(gi, t_lo, tk)
+                    lo = t_lo if gi(t_lo) > 0.0 else _first_positive(gi, t_lo, tk)
+                    te = t_lo if lo is None else _past_root(gi, lo, tk)
                     if te < best_t:
                         best_t, best_i = te, int(i)
                 te = best_t

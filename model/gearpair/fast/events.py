@@ -249,7 +249,13 @@ def flank_guard(md, wk, pc, hs, t, y):
 
 @jit_hot
 def illinois_point(a, ga, b, gb):
-    """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b)."""
+    """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b).
+
+    A left end at a zero taken as positive (`start_flanks`: ``ga`` = G_START) is a root
+    itself: the secant would land on it, where g is zero give or take rounding and could
+    count as fallen, so the step is a bisection until the left end holds a true value."""
+    if ga <= G_START:
+        return 0.5 * (a + b)
     c = b - gb * (b - a) / (gb - ga)
     if not (a < c < b):
         c = 0.5 * (a + b)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from gearpair.bench import plain_scipy
-from gearpair.effects import Effects
+from gearpair.effects import Effects, StiffnessSpec
 from gearpair.results import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,9 +52,10 @@ def test_the_repository_entry_point_runs_it():
     assert "--method" in out.stdout
 
 
-def _fast(friction: str, t_end: float, dt: float = 1e-4) -> dict:
-    traj = simulate(engine="fast", effects=Effects(friction=friction), t_end=t_end, dt=dt,
-                    rtol=1e-12)
+def _fast(friction: str, t_end: float, dt: float = 1e-4,
+          stiffness: str = "potential_energy") -> dict:
+    fx = Effects(friction=friction, stiffness=StiffnessSpec(stiffness))
+    traj = simulate(engine="fast", effects=fx, t_end=t_end, dt=dt, rtol=1e-12)
     return {k: np.asarray(traj[k], dtype=float) for k in ("dte", "mesh_force")}
 
 
@@ -96,6 +97,65 @@ def test_error_follows_the_tolerance(plain):
     assert errs[1] < 0.01 * errs[0] and errs[1] < 1e-6, errs
 
 
+@pytest.mark.parametrize("friction", ["off", "stick_slip"])
+def test_rectangular_stiffness_agrees_with_the_fast_engine(plain, friction):
+    # the rectangular law (issue 37 item 2): the total stiffness steps at the pair exit
+    # (13.6 ms) and entry (18.2 ms); for stick-slip the first stick lies between them
+    ref = _fast(friction, 0.02, stiffness="rectangular")
+    model = plain.PlainGearPair(friction, rtol=1e-10, stiffness="rectangular")
+    got = model.simulate(0.02, 1e-4)
+    for name in ("dte", "mesh_force"):
+        err = np.max(np.abs(got[name] - ref[name])) / np.max(np.abs(ref[name]))
+        assert err < 1e-8, (name, err)
+    assert (model.n_events >= 3) == (friction == "stick_slip")
+
+
+def test_the_stiffness_law_is_the_packages(plain):
+    # at the start of the run (static equilibrium) the plain model's stiffness is the law the
+    # package builds: per pair the same constant (rectangular), or the potential-energy
+    # spline, which is not constant along the path
+    from gearpair.geometry import Geometry
+    from gearpair.params import GearParams
+    from gearpair.stiffness import MeshStiffness
+
+    p = GearParams()
+    g = Geometry.from_params(p)
+    xi = np.linspace(0.0, g.path_length, 7)
+    for kind in ("rectangular", "potential_energy"):
+        model = plain.PlainGearPair("off", stiffness=kind)
+        want = MeshStiffness.build(p, g, StiffnessSpec(kind)).pairs(xi, 2)
+        assert np.allclose(model.stiffness(xi), want, rtol=1e-13, atol=0.0), kind
+        assert np.allclose([model.k_at(x) for x in xi], want, rtol=1e-13, atol=0.0), kind
+    assert np.ptp(want) > 0.1 * np.max(want)
+
+
+def test_the_command_line_picks_law_and_friction(plain, capsys):
+    assert plain.main(["--t-end", "0.002", "--stiffness", "rectangular",
+                       "--friction", "off"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("off") and "rectangular" in lines[0]
+
+
+def test_a_release_from_stick_is_not_a_reversal(plain):
+    # a pair released from stick starts sliding at v = 0 with d v/dt = 0: its event must
+    # start above zero, or rounding makes it fall at once and the release repeats (at rtol
+    # 1e-6 this stalled at 87.2 ms, issue 37)
+    model = plain.PlainGearPair("stick_slip", rtol=1e-6)
+    seg = model.segment(0.0, 0.01)
+    y = np.zeros(12)
+    y[6] = -model.sliding(0.0, y, seg, 0)
+    assert model.sliding(0.0, y, seg, 0) == 0.0
+    dirs = [1.0] * len(seg.pairs)
+    assert all(e(0.0, y) > 0.0 for e in model.events(seg, "contact", dirs, -1)[1:2])
+    got = model.simulate(0.1, 1e-4)
+    assert np.all(np.isfinite(got["dte"])) and model.n_events >= 10
+
+
 def test_bad_friction_law_is_refused(plain):
     with pytest.raises(ValueError, match="friction"):
         plain.PlainGearPair("sticky")
+
+
+def test_bad_stiffness_law_is_refused(plain):
+    with pytest.raises(ValueError, match="stiffness"):
+        plain.PlainGearPair("off", stiffness="table")

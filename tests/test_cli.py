@@ -26,7 +26,7 @@ def _subparsers(ap: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParse
 
 def test_every_option_of_every_command_has_help_with_choices_and_default():
     subs = _subparsers(build_parser())
-    assert set(subs) == {"modes", "simulate", "sweep", "bench"}
+    assert set(subs) == {"modes", "simulate", "sweep", "sensitivity", "bench"}
     for name, sp in subs.items():
         for act in sp._actions:
             if isinstance(act, argparse._HelpAction):

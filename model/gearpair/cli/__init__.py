@@ -19,12 +19,13 @@ import sys
 import warnings
 
 from .. import __version__
-from . import bench, modes, simulate, sweep
+from . import bench, modes, sensitivity, simulate, sweep
 from .common import warning_line
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
-COMMANDS = {"modes": modes, "simulate": simulate, "sweep": sweep, "bench": bench}
+COMMANDS = {"modes": modes, "simulate": simulate, "sweep": sweep,
+            "sensitivity": sensitivity, "bench": bench}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -216,7 +216,7 @@ def start_flanks(md, pc, g, y):
 
 
 @jit_hot
-def flank_guard(md, wk, pc, hs, t, y):
+def flank_guard(md, wk, pc, t, y):
     """The check after every accepted step that nothing can skip (issue 38): the contact
     state agrees with the geometry at its end (``wk.g``: the event values there, with no
     fall seen), and neither flank is compressed by more than P_DB0 + P_DB1 |torque|
@@ -231,9 +231,8 @@ def flank_guard(md, wk, pc, hs, t, y):
     mp, summ = md.par, wk.summary
     status = STATUS_OK
     d = dte_of(y)
-    tol = dte_noise(y, 0)
     for e in range(n_sep_events(md, pc.cs)):
-        if wk.g[e] < -tol:
+        if wk.g[e] < 0.0 and wk.g[e] < -dte_noise(y, 0):  # the noise only when needed
             status = STATUS_MISSED
     bound = mp[P_DB0] + mp[P_DB1] * abs(pc.torque)  # the most a flank may be compressed
     if not (d <= bound) or (md.flag[I_BACK] != 0 and not (d >= -mp[P_BACK] - bound)):

@@ -207,7 +207,7 @@ def piece(md, wk, hs, nact, tb):
             locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit)
             step_extremes(md, wk, pc, hs, sp, nf, ends, (st[T_T] - sp.t) / sp.hh)
             return 1
-        if flank_guard(md, wk, pc, hs, sp.tn, wk.ynew) != STATUS_OK:
+        if flank_guard(md, wk, pc, sp.tn, wk.ynew) != STATUS_OK:
             return -2
         step_extremes(md, wk, pc, hs, sp, nf, ends, 1.0)
         d0 = np.nan if sp.at_knot else ends[3]

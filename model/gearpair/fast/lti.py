@@ -524,7 +524,7 @@ def lti_march(md, wk, pc, hs, lp, tb):
                     stretch_extremes(wk.summary, ends, exact_terms(
                         md, wk.lti_mats[lp.slot], zn, lp.km, pc.cs), hs.clock[T_T] - t)
                 return 1
-            if flank_guard(md, wk, pc, hs, tn, wk.ytmp) != STATUS_OK:
+            if flank_guard(md, wk, pc, tn, wk.ytmp) != STATUS_OK:
                 return -2
             record_force(wk.summary, fm)
             end_terms = evaluated_terms(wk, pc.cs)

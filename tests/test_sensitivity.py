@@ -75,6 +75,28 @@ def test_chart(tmp_path):
     assert out.stat().st_size > 1000
 
 
+@pytest.mark.parametrize("method, n", [("sobol", 8), ("morris", 4)])
+def test_stores_open_without_a_warning_and_say_what_they_hold(method, n, tmp_path):
+    """Issue 36: the points' store and the indices' store open with a plain
+    ``xr.open_zarr``, no warning, every variable with a long name in words."""
+    import warnings
+
+    xr = pytest.importorskip("xarray")
+    with sa.model_hook(_ishigami):
+        sa.run_sensitivity(RANGES, method, n, ("stick_ratio",), store=tmp_path / "s.zarr",
+                           scheduler="serial", progress=False, second_order=method == "sobol")
+    for path in (tmp_path / "s.zarr", sa.sensitivity_path(tmp_path / "s.zarr")):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            ds = xr.open_zarr(path)
+        for name, var in ds.variables.items():
+            said = var.attrs.get("long_name", "")
+            assert said.strip() and said != name, (path.name, name)
+            assert var.attrs.get("units", "1") in ("1", "rpm", "N.m", "s", "kN", "um", "m")
+    if method == "sobol":
+        assert ds["S1"].attrs["units"] == "1" and "95 %" in ds["ST_conf"].attrs["long_name"]
+
+
 @pytest.mark.parametrize("specs, word", [
     (["mu=0.05:0.01", "torque=1:2"], "mu"),
     (["mu=0.01", "torque=1:2"], "mu"),

@@ -7,17 +7,28 @@ from __future__ import annotations
 import json
 import os
 import random
+import shutil
 import signal
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
 
 from gearpair.cli import main
 from gearpair.sweep import Grid, SweepSettings, open_dataset, run_grid, run_point
-from gearpair.sweep.store import NUMERIC, STATUS, Store, chunk_shape
+from gearpair.sweep.settings import long_name, sweepable
+from gearpair.sweep.store import (
+    DESCRIPTION,
+    NUMERIC,
+    STATUS,
+    Store,
+    chunk_shape,
+    consolidate,
+    consolidated,
+)
 
 xr = pytest.importorskip("xarray")
 
@@ -27,6 +38,16 @@ QUICK_ARGS = ["--transient-periods", "10", "--transient-time", "0", "--kept-peri
               "--max-time", "0.5"]
 # the physics of a point (not its cost or where it ran): equal bit for bit between runs
 PHYSICS = [n for n in NUMERIC if n not in ("wall_s", "cpu_s", "attempts", "rtol")]
+# Units as UDUNITS-2 spells them (what CF tools parse): each one checked with its
+# `udunits2 -H UNIT -W ""` (Debian's udunits-bin 2.2.28), which refuses "r/min"
+UDUNITS = {"1", "rpm", "N.m", "s", "kN", "um", "m", "kg", "kg.m2", "rad", "N/m", "Pa"}
+
+
+def _open_quietly(path):
+    """``xr.open_zarr`` as a user calls it, every warning an error."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return xr.open_zarr(path)
 
 
 # -- grids ---------------------------------------------------------------------------------------
@@ -133,6 +154,97 @@ def test_a_half_made_store_of_a_killed_creation_is_cleared(tmp_path):
              progress=False)
     assert not stale.exists() and live.exists()
     assert int(open_dataset(tmp_path / "h.zarr")["done"].sum()) == 1
+
+
+def test_store_opens_with_xarray_without_a_warning_also_after_a_resume(tmp_path):
+    """Issue 36: consolidated metadata from the creation on, and kept up to date by every
+    run (the runs' attributes): a plain ``xr.open_zarr`` warns of nothing."""
+    import zarr
+
+    g = Grid.parse(["speed_rpm=100,150", "torque=2000,3900"])
+    store = tmp_path / "c.zarr"
+    seen = []
+
+    def stop_after_one(rec):
+        seen.append(rec)
+        raise KeyboardInterrupt  # Ctrl-C after the first point
+
+    run = run_grid(g, QUICK, store, scheduler="serial", progress=False,
+                   on_record=stop_after_one)
+    assert run.interrupted and consolidated(store)
+    assert int(_open_quietly(store)["done"].sum()) == 1
+    run_grid(g, QUICK, store, scheduler="serial", progress=False)  # resumed
+    ds = _open_quietly(store)
+    assert int(ds["done"].sum()) == 4 and len(ds.attrs["runs"]) == 2
+    assert ds["stick_ratio"].attrs["long_name"].startswith("stick ratio")
+    # the consolidated metadata is what the arrays' own zarr.json files say, for every array
+    inline = json.loads((store / "zarr.json").read_text())["consolidated_metadata"]["metadata"]
+    names = sorted(name for name, _ in zarr.open_group(store, mode="r",
+                                                       use_consolidated=False).arrays())
+    assert sorted(inline) == names and len(names) > len(NUMERIC)
+    for name in names:
+        assert inline[name] == json.loads((store / name / "zarr.json").read_text()), name
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        open_dataset(store).load()
+    # a store written before it had consolidated metadata: read without a warning, and
+    # consolidated by its next run
+    meta = store / "zarr.json"
+    doc = json.loads(meta.read_text())
+    del doc["consolidated_metadata"]
+    meta.write_text(json.dumps(doc))
+    assert not consolidated(store)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        open_dataset(store).load()
+    assert run_grid(g, QUICK, store, scheduler="serial", progress=False).ran == 0
+    assert consolidated(store) and len(_open_quietly(store).attrs["runs"]) == 3
+    consolidate(store)  # again: no warning of zarr's own passed on
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        consolidate(store)
+
+
+@pytest.mark.parametrize("kind", ["product", "points"])
+def test_every_variable_says_what_it_is_in_udunits(kind, tmp_path):
+    """Issue 36: a ``long_name`` in words (not the variable's name) on every variable and
+    coordinate, and units only in UDUNITS spellings."""
+    if kind == "product":
+        g = Grid.parse(["speed_rpm=100", "torque=3900", "kb1=1e8"])
+    else:
+        f = tmp_path / "pts.csv"
+        f.write_text("speed_rpm,mu,module\n100,0.01,0.006\n")
+        g = Grid.from_csv(f)
+    run_grid(g, QUICK, tmp_path / "u.zarr", scheduler="serial", progress=False)
+    ds = _open_quietly(tmp_path / "u.zarr")
+    assert set(ds.data_vars) >= {n for n in NUMERIC if n not in g.names}
+    for name, var in ds.variables.items():
+        said = var.attrs.get("long_name", "")
+        assert said.strip() and said != name, name
+        if "units" in var.attrs or name in DESCRIPTION:
+            assert var.attrs["units"] in UDUNITS, (name, var.attrs["units"])
+    assert ds["speed_rpm"].attrs["units"] == "rpm"
+    assert ds["mesh_force_mean_kn"].attrs["long_name"] == "mean mesh force"
+    assert ds["mesh_force_mean_kn"].attrs["units"] == "kN"
+    # whatever may be swept, and every numeric column, has both
+    assert set(NUMERIC) <= set(DESCRIPTION)
+    for name, (unit, said) in DESCRIPTION.items():
+        assert unit in UDUNITS and said.strip() and said != name, name
+    for name, unit in sweepable().items():
+        assert unit in UDUNITS and long_name(name).strip() and long_name(name) != name, name
+
+
+@pytest.mark.skipif(shutil.which("udunits2") is None, reason="UDUNITS-2's udunits2 program "
+                    "(Debian: udunits-bin) not installed")
+def test_the_store_units_parse_in_udunits():
+    units = UDUNITS | {u for u, _ in DESCRIPTION.values()} | set(sweepable().values())
+    for unit in sorted(units):
+        got = subprocess.run(["udunits2", "-H", unit, "-W", ""], capture_output=True,
+                             text=True, timeout=30)
+        assert got.returncode == 0 and "Don't recognize" not in got.stdout + got.stderr, unit
+    got = subprocess.run(["udunits2", "-H", "r/min", "-W", ""], capture_output=True,
+                         text=True, timeout=30)
+    assert "Don't recognize" in got.stdout + got.stderr  # what the store wrote before
 
 
 def test_chunks_hold_neighbouring_points():
@@ -326,6 +438,7 @@ def test_client_killed_at_random_moments_leaves_a_readable_store(tmp_path):
         if not store.exists():
             continue
         ds = open_dataset(store).load()  # always readable
+        assert consolidated(store)  # and by xr.open_zarr without a warning
         done = int(ds["done"].sum())
         assert done >= done_before
         ok = ds["done"] == 1  # a point marked done has its whole record

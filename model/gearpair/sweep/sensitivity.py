@@ -216,12 +216,36 @@ def _analyse(ranges, method, x, ys, n, second_order, conf_level, seed, store):
                        np.array([np.asarray(r[k], float) for r in res]))
     ds = xr.Dataset(data, coords={"output": outs, "param": names,
                                   **({"param2": names} if "S2" in data else {})})
+    _describe(ds, conf_level)
     ds.attrs.update(method=method, n=int(n), points=int(x.shape[0]),
                     conf_level=float(conf_level), seed=int(seed), store=str(store),
                     ranges=str({k: list(v) for k, v in ranges.items()}))
     # Zarr v2: v3 has no spec for the string coordinates nor consolidated metadata (warnings)
     ds.to_zarr(sensitivity_path(store), mode="w", zarr_format=2, consolidated=True)
     return ds
+
+
+# what each index is (its ``long_name``); the Sobol indices are fractions of the variance
+# (units "1"), Morris's are in the unit of the output, which differs along ``output``
+_SAID = {"S1": "first-order Sobol index", "ST": "total Sobol index",
+         "S2": "second-order Sobol index (param with param2)",
+         "mu_star": "Morris mu*: mean absolute elementary effect (output unit)",
+         "sigma": "Morris sigma: standard deviation of the elementary effects (output unit)"}
+
+
+def _describe(ds, conf_level: float) -> None:
+    """Give the indices and coordinates of ``ds`` long names (and units where they have one)."""
+    for k in list(ds.data_vars):
+        base = k.removesuffix("_conf")
+        said = _SAID[base] if k == base else \
+            f"half width of the {100 * conf_level:g} % confidence interval of {base}"
+        ds[k].attrs["long_name"] = said
+        if base.startswith("S"):
+            ds[k].attrs["units"] = "1"
+    ds["output"].attrs["long_name"] = "figure of a sweep point (a variable of the store)"
+    ds["param"].attrs["long_name"] = "parameter varied"
+    if "param2" in ds.coords:
+        ds["param2"].attrs["long_name"] = "second parameter of a second-order index"
 
 
 def sensitivity_path(store: str | Path) -> Path:

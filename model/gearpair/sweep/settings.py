@@ -11,8 +11,13 @@ from typing import Any
 from ..effects import OPTIONS, Effects, StiffnessSpec
 from ..params import RPM, GearParams, OperatingPoint, check_range
 
-# Inputs that are not GearParams fields, with their units.
-INPUTS = {"speed_rpm": "r/min", "torque": "N.m"}
+# Inputs that are not GearParams fields, with their units. Units are UDUNITS spellings (what
+# CF tools read; the store writes them): "rpm" for revolutions per minute, not "r/min".
+INPUTS = {"speed_rpm": "rpm", "torque": "N.m"}
+# What a sweepable name is, said in words (the store's ``long_name``): the inputs, and the
+# `GearParams` fields whose ``doc`` would only repeat the name
+_SAID = {"speed_rpm": "speed of gear 1", "torque": "driving torque on gear 1",
+         "module": "module of the teeth (pitch diameter over tooth number)"}
 _FX = Effects().values()  # the effects' defaults (the stiffness as its kind)
 _HELD_TYPE = {"choice": "str", "bool": "bool", "number": "float"}
 
@@ -48,6 +53,17 @@ def sweepable() -> dict[str, str]:
     return out
 
 
+def long_name(name: str) -> str:
+    """What the sweepable ``name`` is, in words (``"speed of gear 1"``, ``"mass of gear
+    1"``): the ``doc`` of a `GearParams` field."""
+    if name in _SAID:
+        return _SAID[name]
+    for f in fields(GearParams):
+        if f.name == name:
+            return f.metadata.get("doc") or name
+    raise KeyError(name)
+
+
 @dataclass(frozen=True)
 @_holding_effects
 class SweepSettings:
@@ -56,7 +72,7 @@ class SweepSettings:
     Attributes
     ----------
     torque : N.m, driving torque when not swept
-    speed_rpm : r/min, speed of gear 1 when not swept
+    speed_rpm : r/min (UDUNITS ``rpm``), speed of gear 1 when not swept
     params : `GearParams` fields changed from Table 1, as ``((name, value), ...)``
     (one field per `Effects` field, added from `gearpair.effects.OPTIONS`) : the effects of
         every point, with the `Effects` defaults (the stiffness as its kind; ``friction =

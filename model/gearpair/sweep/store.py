@@ -9,6 +9,15 @@ the variables `NUMERIC` (ratios, mesh-force and DTE statistics, period, cost ...
 ``poincare`` over an extra dimension ``section`` padded with NaN, its length in
 ``poincare_count`` (CF's "incomplete multidimensional array" form of ragged data). The
 group's attributes hold the layout version, the grid, the settings and the engine version.
+Every variable and coordinate has a ``long_name`` that says what it is and, where it has one,
+``units`` in a UDUNITS spelling (``rpm``, ``N.m``, ``kN``, ``um``, ``1`` ...; `DESCRIPTION`),
+so CF tools and xarray's plots label them.
+
+Consolidated metadata (zarr-python's, in the root ``zarr.json``): ``xarray.open_zarr`` reads
+the whole layout from that one file instead of warning and opening every array's. The points
+only ever change chunks, never metadata, so it is written when the metadata changes: once
+at creation (before the store is renamed into place) and after every run (`Store.add_run`,
+which changes the group's attributes), so a store without it gets it on its next run.
 
 Crash safety: only this process (the client) writes, one batch of finished points at a time
 (`Store.write_many`). A chunk holds up to `CHUNK_POINTS` neighbouring points (one file per
@@ -18,8 +27,10 @@ writes every file to a temporary name and renames it over the old one (`os.repla
 on POSIX; checked by a test): a chunk file is the old one or the new one, never a mix.
 ``done`` is written after the points' other variables, so a point killed between the two
 reads as not done and runs again. The store's
-metadata is written once, into a temporary folder renamed into place. A killed client
-therefore loses only the points in flight, and the store always opens.
+metadata is written once, into a temporary folder renamed into place; after that only the
+root ``zarr.json`` (attributes, consolidated metadata) changes, replaced whole through a
+temporary file and a rename like a chunk. A killed client therefore loses only the points in
+flight, and the store always opens.
 """
 
 from __future__ import annotations
@@ -31,6 +42,7 @@ import math
 import os
 import shutil
 import time
+import warnings
 from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
@@ -39,7 +51,7 @@ import numpy as np
 
 from .grid import Grid
 from .point import COLUMNS
-from .settings import SweepSettings, sweepable
+from .settings import INPUTS, SweepSettings, long_name, sweepable
 
 CHUNK_POINTS = 64  # most points in one chunk of a variable
 FORMAT = 1  # layout version of the store; a different one is refused
@@ -51,13 +63,47 @@ _NOT_NUMERIC = ("index", "param", "value", "status", "friction", "stick_tie", "s
 NUMERIC = tuple(c for c in COLUMNS if c not in _NOT_NUMERIC)
 _INT = ("attempts", "transient_periods", "kept_periods", "poincare_period",
         "poincare_distinct")
-# units of the variables, for the attributes (CF-style strings)
-UNITS = {"rtol": "1", "speed_rpm": "r/min", "torque_nm": "N.m", "mu": "1",
-         "mesh_period_s": "s", "t_end_s": "s", "wall_s": "s", "cpu_s": "s",
-         "mesh_force_min_kn": "kN", "mesh_force_mean_kn": "kN", "mesh_force_max_kn": "kN",
-         "dte_mean_um_sampled": "um", "dte_min_um_sampled": "um", "dte_max_um_sampled": "um",
-         "half_order_um": "um", "mesh_order_um": "um", "adjacent_diff": "um",
-         "alternate_diff": "um"}
+# Units (UDUNITS spellings, as CF asks: "1" is dimensionless, "rpm" revolutions per minute,
+# "um" micrometres) and long names (what the variable is, in words) of the numeric variables.
+# Every `NUMERIC` name needs one (a new column without one fails the store's tests).
+DESCRIPTION = {
+    "attempts": ("1", "runs of the point (the first and the retries with a tighter rtol)"),
+    "rtol": ("1", "relative tolerance of the fast engine"),
+    "speed_rpm": (INPUTS["speed_rpm"], "speed of gear 1"),
+    "torque_nm": (INPUTS["torque"], "driving torque on gear 1"),
+    "mu": ("1", "coefficient of friction between the teeth"),
+    "mesh_period_s": ("s", "mesh period"),
+    "transient_periods": ("1", "mesh periods discarded as transient"),
+    "kept_periods": ("1", "mesh periods kept (recorded)"),
+    "section_phase": ("1", "phase of the Poincare section in the mesh period (0: a pair "
+                           "enters contact)"),
+    "t_end_s": ("s", "simulated time at the end of the record"),
+    "stick_ratio": ("1", "stick ratio: fraction of the kept time in stick (Eq. 26)"),
+    "contact_loss_ratio": ("1", "contact-loss ratio: fraction of the kept time with the "
+                                "teeth apart (Eq. 27)"),
+    "back_contact_ratio": ("1", "fraction of the kept time in contact on the back flank"),
+    "stick_period_fraction": ("1", "fraction of the kept mesh periods with some stick"),
+    "loss_period_fraction": ("1", "fraction of the kept mesh periods with some contact loss"),
+    "dte_mean_um_sampled": ("um", "mean dynamic transmission error (DTE) over the samples"),
+    "dte_min_um_sampled": ("um", "least dynamic transmission error (DTE) of the samples"),
+    "dte_max_um_sampled": ("um", "greatest dynamic transmission error (DTE) of the samples"),
+    "mesh_force_min_kn": ("kN", "least mesh force"),
+    "mesh_force_mean_kn": ("kN", "mean mesh force"),
+    "mesh_force_max_kn": ("kN", "greatest mesh force"),
+    "poincare_period": ("1", "period of the Poincare section in mesh periods (0: none "
+                             "found, -1: no record)"),
+    "poincare_distinct": ("1", "distinct values of the Poincare section"),
+    "adjacent_diff": ("1", "largest RMS difference of the DTE between adjacent mesh periods, "
+                           "over the RMS of its fluctuation"),
+    "alternate_diff": ("1", "largest RMS difference of the DTE between mesh periods two "
+                            "apart, over the RMS of its fluctuation"),
+    "half_order_um": ("um", "DTE amplitude at half the mesh frequency"),
+    "mesh_order_um": ("um", "DTE amplitude at the mesh frequency"),
+    "events_per_period": ("1", "state switches located by the engine per kept mesh period"),
+    "wall_s": ("s", "wall time of the point"),
+    "cpu_s": ("s", "CPU time of the point"),
+}
+UNITS = {name: unit for name, (unit, _) in DESCRIPTION.items()}
 
 # the modules whose code decides a point's numbers (beside the fast engine's own files)
 _PHYSICS = ("params.py", "effects.py", "geometry.py", "stiffness.py", "potential_energy.py",
@@ -112,6 +158,31 @@ def _remove_unfinished(path: Path) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
         except OSError:  # alive, another user's
             continue
+
+
+def consolidate(path: str | Path) -> None:
+    """Write the consolidated metadata of the store at ``path`` (every array's metadata, read
+    from its own ``zarr.json``, into the root ``zarr.json``, which is replaced whole): what
+    ``xarray.open_zarr`` reads first, and without which it warns on every open.
+
+    Zarr v3 has no consolidated metadata in its specification yet; zarr-python writes its
+    own form and warns that other implementations may ignore it. They then read the arrays'
+    own ``zarr.json`` files, which stay as they are, so the warning is not passed on.
+    """
+    zarr = _zarr()
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Consolidated metadata is currently not "
+                                "part in the Zarr format 3 specification")
+        zarr.consolidate_metadata(str(path), zarr_format=3)
+
+
+def consolidated(path: str | Path) -> bool:
+    """True when the store at ``path`` holds consolidated metadata (`consolidate`)."""
+    try:
+        meta = json.loads((Path(path) / "zarr.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return bool((meta.get("consolidated_metadata") or {}).get("metadata"))
 
 
 def _zarr():
@@ -276,6 +347,7 @@ class Store:
                              f"({exc.strerror or exc})") from None
         try:
             _layout(group, grid, settings)
+            consolidate(tmp)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
@@ -380,6 +452,7 @@ class Store:
         runs = list(self.group.attrs.get("runs", []))
         runs.append(info)
         self.group.attrs["runs"] = runs
+        consolidate(self.path)  # the new attributes (and a store that had none gets it)
 
     # -- reading ----------------------------------------------------------------------------
     def records(self) -> list[dict[str, Any]]:
@@ -430,15 +503,18 @@ def _layout(group, grid: Grid, settings: SweepSettings) -> None:
         for name, vals in zip(grid.names, grid.values, strict=True):
             c = group.create_array(name, shape=(len(vals),), dtype="float64",
                                    dimension_names=(name,),
-                                   attributes={"units": units.get(name, "")})
+                                   attributes={"units": units[name],
+                                               "long_name": long_name(name)})
             c[...] = np.asarray(vals)
         coords = ""
     else:
         for name, vals in zip(grid.names, grid.values, strict=True):
             c = group.create_array(name, shape=shape, dtype="float64", dimension_names=dims,
-                                   attributes={"units": units.get(name, "")})
+                                   attributes={"units": units[name],
+                                               "long_name": long_name(name)})
             c[...] = np.asarray(vals)
-        idx = group.create_array("point", shape=shape, dtype="int64", dimension_names=dims)
+        idx = group.create_array("point", shape=shape, dtype="int64", dimension_names=dims,
+                                 attributes={"long_name": "number of the point (its index)"})
         idx[...] = np.arange(grid.size)
         coords = " ".join(grid.names)
 
@@ -454,17 +530,18 @@ def _layout(group, grid: Grid, settings: SweepSettings) -> None:
     for name in NUMERIC:
         if name in grid.names:
             continue
+        unit, said = DESCRIPTION[name]
         if name in _INT:
-            arr(name, "int32", -1, long_name=name, missing="-1")
+            arr(name, "int32", -1, units=unit, long_name=said, missing="-1")
         else:
-            arr(name, "float64", math.nan, units=UNITS.get(name, "1"), long_name=name)
-    arr("status", "int8", 0, flag_values=list(range(len(STATUS))),
-        flag_meanings=" ".join(STATUS))
-    for name in _TEXT:
-        arr(name, str, "")
+            arr(name, "float64", math.nan, units=unit, long_name=said)
+    arr("status", "int8", 0, long_name="outcome of the point",
+        flag_values=list(range(len(STATUS))), flag_meanings=" ".join(STATUS))
+    arr("error", str, "", long_name="why the point is not ok (empty when it is)")
+    arr("worker", str, "", long_name="worker that ran the point (host:process id)")
     arr("poincare", "float64", math.nan, extra=(("section", kmax(settings)),), units="m",
         long_name="DTE at the Poincare section, one sample per kept mesh period (NaN pads)")
-    arr("poincare_count", "int32", 0, long_name="number of Poincare samples")
+    arr("poincare_count", "int32", 0, units="1", long_name="number of Poincare samples")
     arr("done", "int8", 0, long_name="1 once the point's record is complete")
     group.attrs.update({
         "gearpair_store": FORMAT, "gearpair_version": __version__,
@@ -476,8 +553,11 @@ def _layout(group, grid: Grid, settings: SweepSettings) -> None:
 
 def open_dataset(path: str | Path):
     """The store at ``path`` as an ``xarray.Dataset`` (lazy; `StoreError` if it is no sweep
-    store of this layout version)."""
+    store of this layout version). Through the consolidated metadata where the store has it
+    (`consolidate`), else array by array (a store written before it had any), without a
+    warning either way."""
     import xarray as xr
 
     Store.open(path)  # the checks, one line each
-    return xr.open_zarr(path, consolidated=False, zarr_format=3, mask_and_scale=False)
+    return xr.open_zarr(path, consolidated=consolidated(path), zarr_format=3,
+                        mask_and_scale=False)

@@ -211,4 +211,4 @@ def test_architecture_lists_the_modules_an_effect_touches():
     # and no module listed that no effect reads (the Runge-Kutta core is named as untouched)
     assert listed - touched <= {"params.py", "rk.py", "tableaux.py"}, listed - touched
     for name, files in readers.items():  # every effect reaches both engines' code
-        assert "equations.py" in files and "fast/engine.py" in files, name
+        assert "equations.py" in files and "fast/setup.py" in files, name

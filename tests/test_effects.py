@@ -155,7 +155,7 @@ def test_friction_off_decouples_x():
 def test_switched_off_effects_leave_components_out_of_the_steps(fx, held):
     """The Runge-Kutta steps integrate only the components a scene's effects move: the
     translations the model pins or nothing pushes, the energy quadratures of absent terms
-    and the held load-shaft rate stay out (`fast.integrated_components`)."""
+    and the held load-shaft rate stay out (`fast.setup.model_flags`)."""
     from gearpair.fast import N_Y, FastEngine
 
     e = FastEngine(P, Effects(**{"friction": "off", **fx}))

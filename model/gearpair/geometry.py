@@ -51,37 +51,21 @@ class Geometry:
 
     @classmethod
     def from_params(cls, p: GearParams) -> Geometry:
-        from .fast import setupmath as sm  # here: gearpair.fast imports this module
+        """The geometry of gear data ``p``: the compiled set-up's (`gearpair.fast.setup`,
+        the same bits on every machine). Raises ValueError when the tip circles leave the
+        line of action (interference) or the contact ratio is below 1."""
+        from .fast.setup import geometry_vector  # here: gearpair.fast imports this module
 
-        m, a0 = p.module, p.pressure_angle
-        rb1, rb2 = p.rb1, p.rb2
-        ra1 = m * p.z1 / 2 + p.addendum_coef * m
-        ra2 = m * p.z2 / 2 + p.addendum_coef * m
-        rf1 = m * p.z1 / 2 - p.dedendum_coef * m
-        rf2 = m * p.z2 / 2 - p.dedendum_coef * m
-        a = m * (p.z1 + p.z2) / 2
-        # setupmath: the same bits on every machine (the C library's differ by CPU)
-        s1s2 = a * sm.sin(a0)
-        pb = math.pi * m * sm.cos(a0)
-        s1a = s1s2 - math.sqrt(ra2 * ra2 - rb2 * rb2)
-        s1e = math.sqrt(ra1 * ra1 - rb1 * rb1)
-        s1p = rb1 * sm.tan(a0)
-        if s1a < 0 or s1e > s1s2:
-            raise ValueError(
-                "addendum_coef too large: the path of contact leaves the line of action "
-                "(interference); allowed: tip circles that keep A and E between S1 and S2"
-            )
-        eps = (s1e - s1a) / pb
-        if eps < 1.0:
-            raise ValueError(
-                f"contact ratio {eps:.3f} is below 1 (allowed >= 1): the gears cannot mesh "
-                "continuously; raise addendum_coef or the tooth numbers"
-            )
-        return cls(
-            rb1=rb1, rb2=rb2, ra1=ra1, ra2=ra2, rf1=rf1, rf2=rf2, center_distance=a,
-            s1s2=s1s2, base_pitch=pb, s1a=s1a, s1b=s1e - pb, s1p=s1p, s1d=s1a + pb, s1e=s1e,
-            contact_ratio=eps, n_pairs=math.ceil(eps),
-        )
+        return cls.from_vector(geometry_vector(p))
+
+    @classmethod
+    def from_vector(cls, geo) -> Geometry:
+        """The geometry from the compiled set-up's vector (`gearpair.fast.setup.GEO_NAMES`)."""
+        from .fast.setup import GEO_NAMES
+
+        vals = dict(zip(GEO_NAMES, (float(v) for v in geo), strict=True))
+        vals["n_pairs"] = int(vals["n_pairs"])
+        return cls(**vals)
 
     @property
     def path_length(self) -> float:

@@ -11,6 +11,8 @@ import math
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+import numpy as np
+
 RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
 
 # The integrator tolerance every entry point accepts (engines, command line, scenes, FMU).
@@ -23,6 +25,27 @@ RTOL_META = {"unit": "1", "min": RTOL_MIN, "max": RTOL_MAX, "lo_open": False}
 # |load_speed| in rad/s. Far beyond any gear of this size (the load warning,
 # `geometry.load_implausibility`, speaks long before); they keep non-physical numbers out.
 TORQUE_MAX, SPEED_MAX = 1e6, 2e4
+
+# -- the stiffness laws' data (`gearpair.stiffness`, `gearpair.potential_energy`), read by the
+# compiled set-up (`gearpair.fast.setup`) -------------------------------------------------
+N_TABLE = 401  # grid points along the path of a table law (linear between them)
+N_SPLINE = 41  # knots of the cubic spline of the potential-energy law
+#: Sainsot, Velex & Duverger (2004), Table 1: rows L*, M*, P*, Q*; columns A..F of
+#: ``X* = A / theta_f^2 + B h_fi^2 + C h_fi / theta_f + D / theta_f + E h_fi + F``.
+SAINSOT_COEFFS = np.array(
+    [
+        [-5.574e-5, -1.9986e-3, -2.3015e-4, 4.7702e-3, 0.0271, 6.8045],
+        [60.111e-5, 28.100e-3, -83.431e-4, -9.9256e-3, 0.1624, 0.9086],
+        [-50.952e-5, 185.50e-3, 0.0538e-4, 53.300e-3, 0.2895, 0.9236],
+        [-6.2042e-5, 9.0889e-3, -4.0964e-4, 7.8297e-3, -0.1472, 0.6904],
+    ]
+)
+
+#: Range allowed for h_fi = rf / r_int when the bore is inferred from the masses and inertias.
+H_FI_RANGE = (1.1, 3.3)
+
+#: Default number of Gauss-Legendre points over the involute (converged to < 1e-8 relative).
+N_GAUSS = 32
 
 
 def _meta(unit: str, lo: float | None, hi: float | None, doc: str, *, lo_open: bool = False):

@@ -39,29 +39,16 @@ at 7850 kg/m^3 within 1 %). See `bore_radius`.
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 import numpy as np
 
 from .geometry import Geometry
-from .params import GearParams
-
-#: Sainsot, Velex & Duverger (2004), Table 1: rows L*, M*, P*, Q*; columns A..F of
-#: ``X* = A / theta_f^2 + B h_fi^2 + C h_fi / theta_f + D / theta_f + E h_fi + F``.
-SAINSOT_COEFFS = np.array(
-    [
-        [-5.574e-5, -1.9986e-3, -2.3015e-4, 4.7702e-3, 0.0271, 6.8045],
-        [60.111e-5, 28.100e-3, -83.431e-4, -9.9256e-3, 0.1624, 0.9086],
-        [-50.952e-5, 185.50e-3, 0.0538e-4, 53.300e-3, 0.2895, 0.9236],
-        [-6.2042e-5, 9.0889e-3, -4.0964e-4, 7.8297e-3, -0.1472, 0.6904],
-    ]
+from .params import (  # noqa: F401 - the law's data, declared with the gear data
+    H_FI_RANGE,
+    N_GAUSS,
+    SAINSOT_COEFFS,
+    GearParams,
 )
-
-#: Range allowed for h_fi = rf / r_int when the bore is inferred from the masses and inertias.
-H_FI_RANGE = (1.1, 3.3)
-
-#: Default number of Gauss-Legendre points over the involute (converged to < 1e-8 relative).
-N_GAUSS = 32
 
 
 def _inv(a: float | np.ndarray) -> float | np.ndarray:
@@ -69,14 +56,6 @@ def _inv(a: float | np.ndarray) -> float | np.ndarray:
     from .fast import setupmath as smath  # here: gearpair.fast imports this module
 
     return smath.tan(a) - a
-
-
-@lru_cache(maxsize=8)
-def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
-    from .fast import setupmath as smath
-
-    # not numpy's leggauss: it starts from LAPACK eigenvalues, whose bits vary by kernel
-    return smath.gauss_legendre(n)
 
 
 def _gear_data(p: GearParams, g: Geometry, gear: int) -> tuple[int, float, float, float]:
@@ -183,80 +162,15 @@ def tooth_compliances(
         ``"bending"``, ``"shear"``, ``"axial"``, ``"fillet"`` compliances (m/N), each with the
         shape of ``xi``.
     """
-    from .fast import setupmath as smath  # the same bits on every machine
-    from .fast.detlinalg import matvec
+    from .fast.setup import tooth_compliances as compiled  # one source: the set-up's
 
-    z, rb, rf, _ = _gear_data(p, g, gear)
+    del g  # the compiled set-up derives the same geometry from p
     xi = np.asarray(xi, dtype=float)
-    E, nu, b = p.youngs_modulus, p.poisson, p.face_width
-    alpha2 = math.pi / (2.0 * z) + float(_inv(p.pressure_angle))
-    a1 = load_angle(p, g, xi, gear)
-    c1, s1 = smath.cos(a1), smath.sin(a1)
-
-    # Contact point (x_c, h_c) in tooth coordinates.
-    phi_c = a1 + alpha2
-    x_c = rb * (c1 + phi_c * s1)
-    h_c = rb * (phi_c * c1 - s1)
-
-    # Root end of the involute that belongs to the cantilever, and the root geometry.
-    if rf < rb:
-        alpha_root = alpha2
-        h_b = rb * smath.sin(alpha2)  # half chord of the tooth on the base circle
-        theta_f = smath.asin(min(h_b / rf, 1.0))
-        x_root = math.sqrt(max(rf * rf - h_b * h_b, 0.0))
-    else:
-        roll_f = smath.tan(smath.acos(rb / rf))
-        alpha_root = alpha2 - roll_f
-        theta_f = alpha2 - float(_inv(smath.acos(rb / rf)))
-        x_root = rf * smath.cos(theta_f)
-
-    # Involute part: Gauss-Legendre over alpha in [-alpha1, alpha_root], vectorized over xi.
-    t, w = _gauss(int(n_gauss))
-    lo = -a1
-    half = 0.5 * np.maximum(alpha_root - lo, 0.0)
-    al = lo[..., None] + half[..., None] * (t + 1.0)
-    roll = alpha2 - al
-    ca, sa = smath.cos(al), smath.sin(al)
-    x = rb * (ca - roll * sa)
-    h = rb * (sa + roll * ca)
-    dx = rb * roll * ca * half[..., None]  # |dx/dalpha| times the interval map
-    moment = c1[..., None] * (x_c[..., None] - x) - s1[..., None] * h_c[..., None]
-    inertia = 2.0 * (h * h * h) * b / 3.0  # (2h)^3 b / 12
-    area = 2.0 * h * b
-    shear_mod = E / (2.0 * (1.0 + nu))
-    # sums in a fixed order (numpy's pairwise sum takes its order from the SIMD width)
-    bending = smath.row_sum(w * (moment * moment) / (E * inertia) * dx)
-    shear = smath.row_sum(w * 1.2 / (shear_mod * area) * dx) * (c1 * c1)
-    axial = smath.row_sum(w / (E * area) * dx) * (s1 * s1)
-
-    # Straight segment between the root and base circles (rectangle of half width h_b).
-    if rf < rb and root_segment:
-        x_base = rb * smath.cos(alpha2)
-        d = x_base - x_root
-        inertia_b = 2.0 * (h_b * h_b * h_b) * b / 3.0
-        area_b = 2.0 * h_b * b
-        # integral of (c1 (x_c - x) - s1 h_c)^2 dx over [x_root, x_base], in closed form
-        m_root = c1 * (x_c - x_root) - s1 * h_c
-        m_base = c1 * (x_c - x_base) - s1 * h_c
-        bending = bending + (m_root * m_root * m_root - m_base * m_base * m_base) \
-            / (3.0 * c1) / (E * inertia_b)
-        shear = shear + 1.2 * (c1 * c1) * d / (shear_mod * area_b)
-        axial = axial + (s1 * s1) * d / (E * area_b)
-
-    # Fillet foundation (Sainsot et al. 2004). u_f: from the root chord to the point where the
-    # load line crosses the centre line (at rb / cos(alpha1)); S_f: root arc thickness.
-    r_in = bore_radius(p, g, gear) if r_int is None else float(r_int)
-    h_fi = rf / r_in
-    basis = np.array(
-        [1.0 / (theta_f * theta_f), h_fi * h_fi, h_fi / theta_f, 1.0 / theta_f, h_fi, 1.0]
-    )
-    l_s, m_s, p_s, q_s = matvec(SAINSOT_COEFFS, basis)  # not BLAS: the same bits everywhere
-    s_f = 2.0 * rf * theta_f
-    u = (rb / c1 - x_root) / s_f
-    ta = smath.tan(a1)
-    fillet = (c1 * c1) / (E * b) * (l_s * (u * u) + m_s * u + p_s * (1.0 + q_s * (ta * ta)))
-
-    return {"bending": bending, "shear": shear, "axial": axial, "fillet": fillet}
+    if gear not in (1, 2):
+        raise ValueError(f"gear must be 1 or 2, got {gear!r}")
+    c = compiled(p, xi, gear, root_segment=root_segment, n_gauss=n_gauss, r_int=r_int)
+    return {name: c[k].reshape(xi.shape)
+            for k, name in enumerate(("bending", "shear", "axial", "fillet"))}
 
 
 def hertz_compliance(p: GearParams) -> float:

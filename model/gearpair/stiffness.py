@@ -22,10 +22,7 @@ import numpy as np
 
 from .effects import StiffnessSpec
 from .geometry import Geometry
-from .params import GearParams
-
-N_TABLE = 401  # grid points along the path of a table law (linear between them)
-N_SPLINE = 41  # knots of the cubic spline of the potential-energy law
+from .params import N_SPLINE, N_TABLE, GearParams  # noqa: F401
 
 
 @dataclass(frozen=True)
@@ -51,39 +48,37 @@ class MeshStiffness:
 
     @classmethod
     def build(cls, p: GearParams, g: Geometry, spec: StiffnessSpec) -> MeshStiffness:
-        L = g.path_length
-        if spec.kind == "constant":
-            return cls("constant", np.array([0.0, L]), np.array([p.km_mean, p.km_mean]),
-                       p.km_mean)
-        if spec.kind == "rectangular":
-            k0 = p.km_mean / g.contact_ratio  # mean of total = k0 * eps
-            return cls("rectangular", np.array([0.0, L]), np.array([k0, k0]), p.km_mean)
+        """The law ``spec`` for gear data ``p`` (geometry ``g``). Every law but a table
+        comes from the compiled set-up (`gearpair.fast.setup`: the potential-energy
+        compliances on `N_SPLINE` knots, the not-a-knot spline and its exact mean); a table
+        is resampled here and its arrays handed to the set-up as they are."""
         if spec.kind == "table":
-            tab = np.asarray(spec.table, dtype=float)
-            xi = np.linspace(0.0, L, N_TABLE)
-            k = np.interp(xi, tab[:, 0], tab[:, 1])
-        else:
-            from .fast.detlinalg import cubic_spline_not_a_knot
-            from .fast.setupmath import row_sum
-            from .potential_energy import pair_stiffness_raw
+            return cls._table(p, g, spec)
+        from .fast.setup import run_setup  # here: gearpair.fast imports this module
 
-            # scipy's CubicSpline (not-a-knot) solved in a fixed order: LAPACK's banded
-            # solver rounds differently from one BLAS kernel to another
-            xi = np.linspace(0.0, L, N_SPLINE)
-            cubic = cubic_spline_not_a_knot(xi, pair_stiffness_raw(p, g, xi))
-            h = xi[1] - xi[0]
-            # Time mean of the total: (1/pb) * integral_0^L k dxi (see below), exact here.
-            c0, c1, c2, c3 = cubic.T
-            mean = row_sum(((c3 * (h / 4.0) + c2 / 3.0) * h + c1 / 2.0) * h * h + c0 * h) \
-                / g.base_pitch
-            if spec.scale_to_mean:
-                cubic *= p.km_mean / mean
-                mean = p.km_mean
-            c0, c1, c2, c3 = cubic[-1]
-            return cls(spec.kind, xi, np.r_[cubic[:, 0], ((c3 * h + c2) * h + c1) * h + c0],
-                       mean, cubic)
+        return cls.from_model_data(spec.kind, run_setup(p, stiffness=spec).md)
+
+    @classmethod
+    def from_model_data(cls, kind: str, md) -> MeshStiffness:
+        """The law of the compiled set-up's `ModelData` (its tables and mean)."""
+        from .fast.layout import I_KIND, KIND_CUBIC, P_KMEAN
+
+        mean = float(md.par[P_KMEAN])
+        if md.flag[I_KIND] != KIND_CUBIC:
+            return cls(kind, md.xi_knots.copy(), md.k_coef.copy(), mean)
+        xi, cubic = md.xi_knots.copy(), md.k_coef.reshape(-1, 4).copy()
+        h = xi[1] - xi[0]
+        c0, c1, c2, c3 = cubic[-1]
+        return cls(kind, xi, np.r_[cubic[:, 0], ((c3 * h + c2) * h + c1) * h + c0], mean, cubic)
+
+    @classmethod
+    def _table(cls, p: GearParams, g: Geometry, spec: StiffnessSpec) -> MeshStiffness:
         from .fast.setupmath import trapezoid  # summed in a fixed order
 
+        L = g.path_length
+        tab = np.asarray(spec.table, dtype=float)
+        xi = np.linspace(0.0, L, N_TABLE)
+        k = np.interp(xi, tab[:, 0], tab[:, 1])
         if spec.scale_to_mean:
             # Time mean of the total is (1/pb) * integral_0^L k dxi: over n_pairs base
             # pitches each of the n_pairs tracked pairs sweeps the path once.

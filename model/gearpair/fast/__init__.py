@@ -14,7 +14,9 @@ taking a step as `reference.ReferenceEngine`. One module per concern, as the ref
 - `events`: dense output, sampling of each step for falls through zero, Illinois refinement;
 - `lti`: the exact propagator ``expm(A h)`` for constant-coefficient pieces;
 - `loop`: pieces, segments between known boundaries, `advance`, outputs, the grid recorder;
-- `engine`: `FastEngine` and the set-up of its records.
+- `setup`: the model's set-up compiled (geometry, stiffness law, constants, flags, step
+  bound), the records' source for the Python API and the FMU;
+- `engine`: `FastEngine`, the `Engine` contract over the compiled functions.
 
 Everything on the hot path is ``numba.njit`` on named tuples of flat float64/int64 arrays:
 no Python objects, no allocation in the right-hand side (the work buffers are allocated once
@@ -26,7 +28,7 @@ from __future__ import annotations
 
 from .. import jitcache  # noqa: F401  (first: sets NUMBA_CACHE_DIR before numba loads)
 from ..jitcache import CACHE, CACHE_DIR
-from .engine import SCALE, FastEngine, FastOptions, integrated_components
+from .engine import FastEngine, FastOptions
 from .layout import (
     FR_NOMINAL,
     FR_OFF,
@@ -47,6 +49,6 @@ from .tableaux import M_DOP853, M_DP5
 
 __all__ = [
     "CACHE", "CACHE_DIR", "FR_NOMINAL", "FR_OFF", "FR_REG", "FR_STICK", "I_LTI", "I_METHOD",
-    "M_DOP853", "M_DP5", "N_Q", "N_Y", "SCALE", "Y_A", "Y_AD", "FastEngine", "FastOptions",
-    "HybridState", "ModelData", "Piece", "Work", "integrated_components",
+    "M_DOP853", "M_DP5", "N_Q", "N_Y", "Y_A", "Y_AD", "FastEngine", "FastOptions",
+    "HybridState", "ModelData", "Piece", "Work",
 ]

@@ -35,34 +35,16 @@ from ..stepblock import (
     X_TORQUE,
 )
 from .layout import (
-    FRICTION_CODE,
-    I_BACK,
-    I_FRIC,
     I_IX,
-    I_KIND,
     I_LTI,
     I_MAXEV,
-    I_METHOD,
     I_NIX,
-    I_NP,
-    I_NSAMP,
-    I_NTAB,
-    I_SEP,
-    I_SLIDE,
-    I_TIE,
-    I_TORS,
-    I_VARY,
     J_NEVTOT,
     J_NPREV,
     J_SEP,
-    KIND_CONSTANT,
-    KIND_CUBIC,
-    KIND_TABLE,
     L_NSLOT,
     L_SCRATCH,
     N_IST,
-    N_MI,
-    N_MP,
     N_O,
     N_OUT,
     N_PW,
@@ -78,36 +60,10 @@ from .layout import (
     O_NREJ,
     O_STATUS,
     O_TFAIL,
-    P_BACK,
-    P_C,
-    P_CM,
-    P_DB0,
-    P_DB1,
-    P_DX,
-    P_INVDX,
-    P_IPER,
-    P_IRB1,
-    P_IRB2,
-    P_KB,
-    P_KMEAN,
-    P_L,
     P_MAXSTEP,
-    P_MINV,
-    P_MU,
-    P_MUS,
-    P_PB,
-    P_PER,
     P_RATIO,
-    P_RB1,
     P_RB2,
-    P_RTOL,
-    P_S1A,
-    P_S1S2,
     P_SPACING,
-    P_TTOL,
-    P_VEPS,
-    P_VS,
-    P_XIP,
     R_FSTG,
     S_COMP,
     S_KM,
@@ -127,41 +83,15 @@ from .layout import (
     T_TORQUE,
     Y_A,
     HybridState,
-    ModelData,
     Work,
 )
 from .loop import eval_entry, outputs_entry, reset_entry, run_grid_entry
 from .native import compiled, handoff_table, step_entry, step_lti_entry
+from .setup import run_setup
 from .setupmath import row_sum
 from .tableaux import METHOD_CODE, RK_NK
 
 _new = tuple.__new__
-# typical magnitudes for the default absolute tolerance (as the reference)
-SCALE = np.r_[np.full(6, 1e-5), np.full(6, 1e-3), np.full(4, 1.0), 1e-5, 1e-3]
-
-
-def integrated_components(torsional: bool, friction: bool, varying: bool) -> np.ndarray:
-    """Indices of the components of y that a Runge-Kutta step integrates.
-
-    A switched-off effect leaves components whose rate is identically zero, and they are
-    held: the error norm, the continuous extension and the event samples skip them. These
-    are x1, x2 and their rates without friction (nothing else pushes along the off-line of
-    action, so they stay at rest), all four support translations in the torsional model,
-    the friction work without friction, the parametric power with a constant mesh
-    stiffness, and always the load-shaft end's rate a' (held per step). Only the stage
-    sums (`rk.stage`, `events.hermite`) run over all N_Y components: there the held ones
-    add exact zeros in SIMD lanes, which costs less than skipping them through this list.
-    """
-    keep = [2, 5, 8, 11, 12, 13, Y_A]  # u1, u2, their rates, input work, damping loss, a
-    if not torsional:
-        keep += [1, 4, 7, 10]  # y1, y2 along the line of action
-        if friction:
-            keep += [0, 3, 6, 9]  # x1, x2: driven only by the friction forces
-    if friction:
-        keep.append(14)
-    if varying:
-        keep.append(15)
-    return np.array(sorted(keep), dtype=np.int64)
 
 
 @dataclass(frozen=True)
@@ -203,73 +133,6 @@ class FastOptions:
         if not (1 <= int(self.n_samples) <= 1000):
             raise ValueError(f"n_samples = {self.n_samples!r} is out of range; allowed "
                              "[1, 1000]")
-
-
-def model_constants(m: Model, rtol: float, max_step: float, t_tol: float) -> np.ndarray:
-    """`ModelData.par` of the model (before the table spacing, `stiffness_tables`)."""
-    fx, g = m.effects, m.geom
-    mp = np.zeros(N_MP)
-    mp[P_MINV:P_MINV + 6] = m.minv
-    mp[P_C:P_C + 6] = m.c_diag
-    mp[P_KB:P_KB + 6] = m.kb_diag
-    mp[P_RB1], mp[P_RB2], mp[P_RATIO], mp[P_CM], mp[P_MU] = m.rb1, m.rb2, m.ratio, m.cm, m.mu
-    mp[P_VEPS] = fx.v_eps
-    mp[P_S1A], mp[P_S1S2], mp[P_PB] = g.s1a, g.s1s2, g.base_pitch
-    mp[P_L], mp[P_PER], mp[P_XIP] = g.path_length, g.period_length, g.xi_pitch
-    mp[P_KMEAN] = m.stiff.km_mean
-    mp[P_IRB1], mp[P_IRB2], mp[P_IPER] = 1.0 / m.rb1, 1.0 / m.rb2, 1.0 / g.period_length
-    mp[P_RTOL], mp[P_MAXSTEP], mp[P_TTOL] = rtol, max_step, float(t_tol)
-    mp[P_BACK] = 0.0 if fx.backlash is None else float(fx.backlash)
-    mp[P_MUS], mp[P_VS] = m.mu_static, m.stribeck_velocity
-    mp[P_DB0], mp[P_DB1] = m.dte_bound()
-    return mp
-
-
-def model_flags(m: Model, opts: FastOptions) -> np.ndarray:
-    """`ModelData.flag` of the model and options (before the table size)."""
-    fx, st = m.effects, m.stiff
-    mi = np.zeros(N_MI, dtype=np.int64)
-    mi[I_NP] = m.geom.n_pairs
-    mi[I_KIND] = KIND_CONSTANT if st.kind == "constant" else \
-        KIND_CUBIC if st.cubic is not None else KIND_TABLE
-    mi[I_VARY] = 0 if st.kind in ("constant", "rectangular") else 1
-    mi[I_SEP] = 1 if fx.separation else 0
-    mi[I_FRIC] = FRICTION_CODE[fx.friction]
-    mi[I_SLIDE] = 1 if fx.sliding == "full" else 0
-    mi[I_TIE] = 1 if fx.stick_tie == "paper" else 0
-    mi[I_NSAMP] = int(opts.n_samples)
-    mi[I_MAXEV] = int(opts.max_events)
-    mi[I_BACK] = 1 if fx.backlash is not None else 0
-    mi[I_TORS] = 1 if m.torsional else 0
-    # constant coefficients between switches: the exact propagator replaces Runge-Kutta
-    mi[I_LTI] = 1 if (fx.friction == "off" and st.kind in ("constant", "rectangular")
-                      and opts.exact_lti) else 0
-    mi[I_METHOD] = METHOD_CODE[opts.method]
-    ix = integrated_components(bool(m.torsional), fx.friction != "off", bool(mi[I_VARY]))
-    mi[I_NIX] = len(ix)
-    mi[I_IX:I_IX + len(ix)] = ix
-    return mi
-
-
-def stiffness_tables(m: Model, mp: np.ndarray, mi: np.ndarray) -> tuple:
-    """(xi_knots, k_coef, k_slope) of the stiffness law; sets the table spacing in ``mp``
-    and its size in ``mi``."""
-    st = m.stiff
-    tx = np.ascontiguousarray(st.xi, dtype=float)
-    if st.cubic is not None:  # 4 coefficients per interval; k_slope: the slope at its start
-        tk = np.ascontiguousarray(st.cubic, dtype=float).ravel()
-        tdk = np.ascontiguousarray(st.cubic[:, 1], dtype=float)
-    else:
-        tk = np.ascontiguousarray(st.k, dtype=float)
-        tdk = np.diff(tk) / np.diff(tx)
-    ntab = len(tx)
-    mi[I_NTAB] = ntab
-    mp[P_DX] = m.geom.path_length / (ntab - 1)
-    mp[P_INVDX] = 1.0 / mp[P_DX]
-    if np.max(np.abs(tx - mp[P_DX] * np.arange(ntab))) > 1e-9 * mp[P_DX]:
-        raise ValueError("FastEngine needs the stiffness table on a uniform grid from 0 "
-                         "to the path length (MeshStiffness.build makes one)")
-    return tx, tk, tdk
 
 
 def work_buffers(n: int) -> Work:
@@ -317,22 +180,17 @@ class FastEngine(Engine):
         self._made = ((params, effects, rtol), options)  # for a throwaway twin (`warm_up`)
         m = self.model = Model.build(params, effects)
         self.rtol = float(rtol)
-        self.atol = SCALE * rtol if opts.atol is None else np.full(N_Y, float(opts.atol))
-        max_step = opts.max_step
-        if max_step is None:
-            from ..modal import natural_frequencies
-
-            max_step = 0.5 / float(natural_frequencies(m, "slip")[-1])
-        self.max_step = float(max_step)
-        mp = model_constants(m, self.rtol, self.max_step, opts.t_tol)
-        self.sample_spacing = float(self.max_step / (opts.n_samples + 1)
-                                    if opts.sample_spacing is None else opts.sample_spacing)
-        mp[P_SPACING] = self.sample_spacing
-        mi = model_flags(m, opts)
+        st = m.stiff
+        # the records from the compiled set-up (`setup`): the same bits as the FMU's
+        self._md = run_setup(m.p, m.effects, rtol=self.rtol, options=opts,
+                             table=(st.xi, st.k, st.km_mean) if st.kind == "table" else None).md
+        mp, mi = self._md.par, self._md.flag
+        self.atol = self._md.atol
+        self.max_step = float(mp[P_MAXSTEP])
+        self.sample_spacing = float(mp[P_SPACING])
         self.integrated = mi[I_IX:I_IX + mi[I_NIX]].copy()  # what Runge-Kutta integrates
         self._held_q = np.setdiff1d(np.arange(2 * N_Q), self.integrated)  # q, q' at rest
         self.method = opts.method
-        self._md = ModelData(mp, mi, self.atol, *stiffness_tables(m, mp, mi))
         n = m.geom.n_pairs
         self._state, self._hs = state_buffer(n)
         self._wk = work_buffers(n)

@@ -1,4 +1,4 @@
-"""Elementary functions, sums and Gauss points for the model's set-up, called from Python.
+"""Elementary functions and sums for the Python around the model's set-up (`fast.setup`).
 
 The model's set-up (gear geometry, the potential-energy stiffness, its spline, the static
 equilibrium, the highest natural frequency that bounds the step) must give the same bits on
@@ -6,8 +6,7 @@ every machine, as the engine does. Python's ``math`` and numpy's ``sin``, ``exp`
 the C library or numpy's own SIMD code, both chosen by CPU features, and numpy's sums and
 products of small matrices go through code whose order of operations depends on the CPU or
 the BLAS kernel. Here the set-up gets the project's own elementary functions (`detmath`:
-IEEE operations only) over arrays or scalars, row sums in a fixed order, and Gauss-Legendre
-points computed without LAPACK.
+IEEE operations only) over arrays or scalars and row sums in a fixed order.
 
 Each function takes a float or an array and returns the same kind; the compiled work is one
 entry point per kind of loop (`_apply`, `_row_sums`), so a first compile stays short.
@@ -127,32 +126,3 @@ def trapezoid(y, x) -> float:
     y, x = np.asarray(y, dtype=float), np.asarray(x, dtype=float)
     return row_sum(0.5 * (y[1:] + y[:-1]) * (x[1:] - x[:-1]))
 
-
-def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes (ascending) and weights of the n-point Gauss-Legendre rule on [-1, 1].
-
-    Newton's method on the three-term recurrence of P_n from the classical first guesses
-    ``cos(pi (i + 3/4) / (n + 1/2))``, to convergence and one step more; weights
-    ``2 / ((1 - x^2) P_n'(x)^2)``. numpy's ``leggauss`` starts from LAPACK's eigenvalues of
-    the companion matrix, which differ in the last bits from one BLAS kernel to another.
-    """
-    x = np.empty(n)
-    w = np.empty(n)
-    for i in range(n):
-        t = float(cos(np.pi * (i + 0.75) / (n + 0.5)))
-        for _ in range(100):
-            p0, p1 = 1.0, t
-            for k in range(2, n + 1):
-                p0, p1 = p1, ((2 * k - 1) * t * p1 - (k - 1) * p0) / k
-            dp = n * (t * p1 - p0) / (t * t - 1.0)
-            dt = p1 / dp
-            t -= dt
-            if abs(dt) <= 1e-16 * abs(t) or abs(dt) < 1e-300:
-                break
-        p0, p1 = 1.0, t
-        for k in range(2, n + 1):
-            p0, p1 = p1, ((2 * k - 1) * t * p1 - (k - 1) * p0) / k
-        dp = n * (t * p1 - p0) / (t * t - 1.0)
-        x[n - 1 - i] = t
-        w[n - 1 - i] = 2.0 / ((1.0 - t * t) * dp * dp)
-    return x, w

@@ -16,11 +16,23 @@ import numba
 import pytest
 
 from gearpair import jitcache, jitlink
-from gearpair.fast import contact, events, extremes, loop, lti, native, rk, switching
+from gearpair.fast import (
+    contact,
+    events,
+    extremes,
+    loop,
+    lti,
+    native,
+    rk,
+    setup,
+    start,
+    switching,
+    views,
+)
 
-MODULES = (contact, events, extremes, loop, lti, native, rk, switching)
-ENTRIES = {"step_entry", "step_lti_entry", "run_grid_entry", "outputs_entry", "eval_entry",
-           "reset_entry"}
+MODULES = (contact, events, extremes, loop, lti, native, rk, setup, start, switching, views)
+ENTRIES = {"step_entry", "step_lti_entry", "init_entry", "run_grid_entry", "outputs_entry",
+           "eval_entry", "reset_entry", "setup_entry", "compliances_entry"}
 
 
 def dispatchers():
@@ -127,3 +139,11 @@ def test_the_engine_imports_with_numba_jit_disabled():
                          env=env, timeout=300)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "function"
+
+
+def test_the_engine_object_finds_the_numba_internals_it_uses():
+    """`gearpair.aot` takes each entry point's LLVM module from numba's compile result;
+    a numba without those internals is named here, not by a failing FMU build."""
+    from gearpair import aot
+
+    assert aot.missing_internals() == []

@@ -22,6 +22,9 @@ from gearpair.fast.layout import I_KIND, I_NTAB, KIND_CUBIC, P_KMEAN, P_L, P_MAX
 from gearpair.fast.native import compiled
 from gearpair.modal import natural_frequencies
 
+# own gear data with Table 1's bodies: the set-up's arithmetic is what is tested here
+pytestmark = pytest.mark.filterwarnings("ignore::gearpair.geometry.GearDataWarning")
+
 GEARS = [GearParams(), GearParams(module=4e-3, z1=25, z2=60),
          GearParams(z1=17, z2=90, addendum_coef=1.2, pressure_angle=math.radians(25)),
          GearParams(dedendum_coef=1.0, z1=40, z2=41)]
@@ -110,3 +113,54 @@ def test_gear_data_that_cannot_mesh_are_refused_with_the_reason():
         S.run_setup(GearParams(addendum_coef=0.5))
     with pytest.raises(ValueError, match="interference"):
         S.run_setup(GearParams(z1=12, z2=12, addendum_coef=1.5, pressure_angle=math.radians(10)))
+
+
+@pytest.mark.parametrize("p", GEARS)
+@pytest.mark.parametrize("fx, torque", [(Effects(), 3900.0),
+                                        (Effects(dof="torsional", sliding="full"), 2000.0),
+                                        (Effects(friction="off", backlash=1e-4), -1500.0),
+                                        (Effects(stiffness="rectangular"), -800.0)])
+def test_the_compiled_reset_rests_where_the_model_says(p, fx, torque):
+    """`start.reset_state` (what `FastEngine.reset` and the FMU's C layer run) puts the
+    gears in the static equilibrium of `Model.static_deflection` bit for bit, with the
+    contact code of `Model.contact_code`."""
+    from gearpair.fast.layout import J_NPREV, J_SEP
+
+    e = FastEngine(p, fx)
+    e.reset(0.25, torque, 10.0)
+    m = e.model
+    active, _, _, _, k = m.contact(0.0)
+    q = m.static_deflection(torque, float(k.sum()))
+    assert np.array_equal(e._hs.y[:6], q) and not e._hs.y[6:].any()
+    delta = q[1] - q[4] + q[2] + q[5]
+    assert e._hs.mode[J_SEP] == m.contact_code(delta)
+    assert e._hs.mode[J_NPREV] == len(active)
+    assert e.time == 0.25 and e._last is None
+
+
+def test_initialization_through_the_c_address_shows_the_static_equilibrium():
+    """`native.init_entry` called at its C address leaves in the step block the outputs the
+    Python API gives after the same reset, and the figures of an empty step."""
+    from gearpair.engine import StepSummary
+    from gearpair.fast.native import init_entry
+    from gearpair.stepblock import STEP_DONE, STEP_RECORD, X_REC, X_SPEED, X_TCHK, X_TORQUE
+
+    p, fx = GearParams(module=4e-3, z1=25, z2=60), Effects(backlash=1e-4)
+    e = FastEngine(p, fx)
+    e.reset(0.1, -700.0, 30.0)
+    o = e.outputs()
+    want = (o.dte, o.mesh_force, o.friction_force, o.contact_state, o.output_torque,
+            o.input_torque_reaction, o.input_torque, o.gear1_speed, o.gear2_speed,
+            o.sliding_velocity) + tuple(StepSummary.at_instant(o))[2:]
+    c = FastEngine(p, fx)
+    x = c.block
+    x[X_TCHK], x[X_TORQUE], x[X_SPEED] = 0.1, -700.0, 30.0
+    _, address = compiled(init_entry)
+    call = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int64)(address)
+    assert call(c._table_address) == STEP_DONE
+    got = x[X_REC:X_REC + len(STEP_RECORD)]
+    assert np.array_equal(got, np.array(want, dtype=float))
+    assert np.array_equal(c._state, e._state, equal_nan=True)
+    x[X_TORQUE] = 2e6  # out of range: refused, nothing changed
+    assert call(c._table_address) != STEP_DONE
+    assert np.array_equal(c._state, e._state, equal_nan=True)

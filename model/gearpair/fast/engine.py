@@ -34,6 +34,7 @@ from ..stepblock import (
     X_TEND,
     X_TORQUE,
 )
+from .detlinalg import STATUS_TEXT
 from .layout import (
     I_IX,
     I_LTI,
@@ -216,24 +217,12 @@ class FastEngine(Engine):
     def reset(self, t0: float = 0.0, torque: float = 0.0, speed: float = 0.0,
               static: bool = True) -> None:
         check_inputs(torque, speed)
-        m, hs = self.model, self._hs
-        st, y = hs.clock, hs.y
-        st[:] = 0.0
-        st[T_T] = float(t0)
-        st[T_TORQUE], st[T_SPEED] = float(torque), float(speed)
-        y[:] = 0.0
-        active, _, _, _, k = m.contact(0.0)
-        if static and torque != 0.0:
-            y[:N_Q] = m.static_deflection(torque, float(k.sum()))
-        hs.prev_active[:len(active)] = active  # the set in contact at t0 (as the reference)
-        delta = y[1] - y[4] + y[2] + y[5]
-        hs.mode[:] = 0
-        hs.mode[J_SEP] = m.contact_code(delta)
-        hs.mode[J_NPREV] = len(active)
-        hs.dirs[:] = 1.0
-        hs.stuck[:] = 0
-        reset_entry(*self._args)
-        self._last = None
+        # compiled (`start.reset_state`), as the FMU's C layer initializes an engine
+        status = reset_entry(*self._args, (float(t0), float(torque), float(speed), bool(static)))
+        if status != 0:
+            raise np.linalg.LinAlgError(
+                f"the static equilibrium under torque {torque!r} N.m has no solution "
+                f"(stiffness matrix: {STATUS_TEXT[status]})")
         self._stale()
 
     @property

@@ -102,6 +102,7 @@ from .layout import (
 )
 from .lti import piece_lti
 from .rk import first_step, try_step
+from .start import reset_state
 from .switching import end_piece, settle, speed_change, switch
 from .tableaux import RK_A, RK_NS
 
@@ -538,5 +539,9 @@ def eval_entry(md, wk, hs):
 
 
 @jit_entry
-def reset_entry(md, wk, hs):
-    reset_settle(ModelData(*md), Work(*wk), HybridState(*hs))
+def reset_entry(md, wk, hs, start):
+    """`start.reset_state` and the slip directions (`reset_settle`); the solver's status."""
+    md, wk, hs = ModelData(*md), Work(*wk), HybridState(*hs)
+    status = reset_state(md, wk, hs, start)
+    reset_settle(md, wk, hs)
+    return status

@@ -57,6 +57,7 @@ from .layout import (
 )
 from .rk import EPS
 from .switching import end_piece, switch
+from .views import array_at, dims, word
 
 PADE6 = np.array([math.factorial(12 - k) * math.factorial(6)
                   / (math.factorial(12) * math.factorial(k) * math.factorial(6 - k))
@@ -132,7 +133,8 @@ def pade66(X, E, S):
             E[i, j] = V[i, j] + U[i, j]   # numerator
             V[i, j] = V[i, j] - U[i, j]   # denominator
     # solve V R = E (partial pivoting), R into E
-    Wd = S[10:12].reshape((NZ, 2 * NZ))
+    # S[10:12] as one matrix (a reshape would call numba's runtime library)
+    Wd = array_at(word(S[10], 0), dims(NZ, 2 * NZ), 0.0)
     for i in range(NZ):
         for j in range(NZ):
             Wd[i, j] = V[i, j]

@@ -25,10 +25,8 @@ import math
 
 import numpy as np
 from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
-from numba.np.arrayobj import make_array, populate_array
 
+from ..engine import CONTACT_BACK, CONTACT_SEPARATED, CONTACT_STICK
 from ..jitcache import jit_entry, jit_hot
 from ..stepblock import (
     STEP_DONE,
@@ -48,6 +46,7 @@ from ..stepblock import (
     X_TORQUE,
 )
 from .layout import (
+    L_NSLOT,
     O_FINT,
     O_FMAX,
     O_FMIN,
@@ -68,7 +67,9 @@ from .layout import (
     ModelData,
     Work,
 )
-from .loop import advance, outputs_now
+from .loop import advance, outputs_now, reset_settle
+from .start import reset_state
+from .views import array_at as _array_at
 
 N_FIG = len(STEP_RECORD) - 10  # figures after the N_O outputs
 # The hand-off table: 4 words (address, shape) per array, in this order; the kind of each
@@ -99,32 +100,6 @@ def handoff_table(md: ModelData, wk: Work, hs: HybridState, block: np.ndarray,
         table[4 * k] = a.ctypes.data
         table[4 * k + 1:4 * k + 1 + a.ndim] = a.shape
     return table
-
-
-@intrinsic
-def _array_at(typingctx, address, shape, proto):
-    """The C-contiguous array at the int64 ``address`` with the dimensions ``shape`` (a
-    tuple of int64) and the type of the scalar ``proto`` (0.0: float64, 0: int64). It owns
-    nothing (no reference count: the engine holds the memory)."""
-    dtype = types.unliteral(proto)
-    ndim = len(shape)
-    arrty = types.Array(dtype, ndim, "C")
-    sig = arrty(address, shape, proto)
-
-    def codegen(context, builder, signature, args):
-        addr, shp, _ = args
-        ary = make_array(arrty)(context, builder)
-        itemsize = context.get_abi_sizeof(context.get_data_type(dtype))
-        dims = cgutils.unpack_tuple(builder, shp, ndim)
-        strides = [context.get_constant(types.intp, itemsize)]
-        for d in reversed(dims[1:]):
-            strides.insert(0, builder.mul(strides[0], d))
-        populate_array(ary, data=builder.inttoptr(addr, ary.data.type), shape=dims,
-                       strides=strides, itemsize=context.get_constant(types.intp, itemsize),
-                       meminfo=None)
-        return ary._getvalue()
-
-    return sig, codegen
 
 
 @jit_hot
@@ -227,6 +202,41 @@ def step(tab, lti):
     return code
 
 
+@jit_hot
+def initialize(tab):
+    """Reset the engine of the hand-off table ``tab`` to the static equilibrium at time
+    X_TCHK under the inputs X_TORQUE, X_SPEED (`start.reset_state`, then the slip
+    directions; no exact propagator cached), and put the outputs there into the step record
+    with the figures of an empty step (`gearpair.engine.StepSummary.at_instant`), as an FMU
+    shows them before its first step. Returns STEP_DONE, STEP_REFUSED (an input out of
+    range: nothing changed), STEP_FAILED (no static equilibrium) or STEP_NONFINITE."""
+    md, wk, hs, (x, _, _) = records(tab)
+    if not (abs(x[X_TORQUE]) <= 1e6 and abs(x[X_SPEED]) <= 2e4 and math.isfinite(x[X_TCHK])):
+        return STEP_REFUSED
+    keys = wk.lti_keys  # no propagator cached (`engine.work_buffers`)
+    for slot in range(keys.shape[0]):
+        for c in range(keys.shape[1]):
+            keys[slot, c] = -1.0 if slot < L_NSLOT and c == 0 else 0.0
+    if reset_state(md, wk, hs, (x[X_TCHK], x[X_TORQUE], x[X_SPEED], True)) != 0:
+        return STEP_FAILED
+    reset_settle(md, wk, hs)
+    outputs_now(md, wk, hs)
+    o, f = wk.outputs, wk.outputs[1]
+    cs = o[3]
+    fig = (1.0 if cs == CONTACT_STICK else 0.0, 1.0 if cs == CONTACT_SEPARATED else 0.0, f,
+           0.0, 0.0, 1.0 if cs == CONTACT_BACK else 0.0, f, f)
+    bad = first_not_finite(o, fig)
+    x[X_BAD] = bad
+    if bad >= 0:
+        return STEP_NONFINITE
+    n_o = o.shape[0]
+    for m in range(n_o):
+        x[X_REC + m] = o[m]
+    for m in range(N_FIG):
+        x[X_REC + n_o + m] = fig[m]
+    return STEP_DONE
+
+
 # -- entry points: called from Python through numba's dispatcher, from C at their address --
 @jit_entry
 def step_entry(table_address):
@@ -238,6 +248,12 @@ def step_entry(table_address):
 def step_lti_entry(table_address):
     """`step` of an engine with the exact propagator (``FastEngine._lti`` True)."""
     return step(_array_at(table_address, (N_TABLE,), 0), True)
+
+
+@jit_entry
+def init_entry(table_address):
+    """`initialize` the engine of the hand-off table at ``table_address``."""
+    return initialize(_array_at(table_address, (N_TABLE,), 0))
 
 
 def compiled(dispatcher) -> tuple:

@@ -90,7 +90,7 @@ from .layout import (
     Y_A,
     ModelData,
 )
-from .native import _array_at
+from .views import array_at, dims, word
 
 # -- inputs -----------------------------------------------------------------------------------
 #: The gear data vector: `GearParams` fields in their declared order (the FMU's order too).
@@ -371,7 +371,7 @@ def spline_law(gp, geo, scale_to_mean, tabs, sc):
     gauss_legendre_into(t, w)
     kraw = sc[SC_KRAW:SC_KRAW + n]
     pair_stiffness_into(gp, geo, xi, (t, w), kraw, sc[SC_K:SC_K + 14])
-    spw = _array_at(_at(sc, SC_SPW), (np.int64(4), np.int64(n)), 0.0)
+    spw = array_at(word(sc, SC_SPW), dims(4, n), 0.0)
     if cubic_spline_into(xi, kraw, cubic, spw) != OK:
         return SETUP_SPLINE, 0.0
     h = xi[1] - xi[0]
@@ -424,7 +424,7 @@ def stiffness_law(gp, ch, geo, tab, out, sc):
     law = int(ch[C_LAW])
     L = geo[GEO_S1E] - geo[GEO_S1A]
     if law == LAW_POTENTIAL:
-        cubic = _array_at(_at(kc, 0), (np.int64(N_SPLINE - 1), np.int64(4)), 0.0)
+        cubic = array_at(word(kc, 0), dims(N_SPLINE - 1, 4), 0.0)
         st, mean = spline_law(gp, geo, ch[C_SCALE] != 0.0,
                               (xi[:N_SPLINE], cubic, ks[:N_SPLINE - 1]), sc)
         flag[I_KIND] = KIND_CUBIC
@@ -438,12 +438,6 @@ def stiffness_law(gp, ch, geo, tab, out, sc):
     return SETUP_OK, 2, gp[GP_KM]
 
 
-@jit
-def _at(buf, offset):
-    """The address of word ``offset`` of ``buf`` (for a 2-D view: `_array_at`)."""
-    return buf.ctypes.data + 8 * offset
-
-
 # -- the modes' step bound --------------------------------------------------------------------
 @jit
 def top_frequency(gp, geo, km, torsional, sc):
@@ -454,8 +448,8 @@ def top_frequency(gp, geo, km, torsional, sc):
                                      gp[GP_KB2], gp[GP_KR2])
     g = (0.0, 1.0, 1.0, 0.0, -1.0, 1.0)  # delta = G . q, Eq. (3)
     n = 2 if torsional else 6
-    nn = (np.int64(n), np.int64(n))
-    K, M = _array_at(_at(sc, SC_K), nn, 0.0), _array_at(_at(sc, SC_M), nn, 0.0)
+    K = array_at(word(sc, SC_K), dims(n, n), 0.0)
+    M = array_at(word(sc, SC_M), dims(n, n), 0.0)
     for a in range(n):
         i = 2 + 3 * a if torsional else a  # the torsional model keeps u1, u2
         for b in range(n):
@@ -463,8 +457,9 @@ def top_frequency(gp, geo, km, torsional, sc):
             K[a, b] = (kdiag[i] if i == j else 0.0) + km * (g[i] * g[j])
             M[a, b] = mdiag[i] if i == j else 0.0
     lam = sc[SC_LAM:SC_LAM + n]
-    work = _array_at(_at(sc, SC_EW), (np.int64(2 * n + 3), np.int64(n)), 0.0)
-    if eigh_generalized_into(K, M, lam, _array_at(_at(sc, SC_V), nn, 0.0), work) != OK:
+    work = array_at(word(sc, SC_EW), dims(2 * n + 3, n), 0.0)
+    V = array_at(word(sc, SC_V), dims(n, n), 0.0)
+    if eigh_generalized_into(K, M, lam, V, work) != OK:
         return -1.0
     return math.sqrt(max(lam[n - 1], 0.0)) / (2 * np.pi)
 
@@ -611,16 +606,16 @@ def setup_table(tab):
     """(inputs, outputs, scratch) of `setup` from a set-up table (`SETUP_ARRAYS`' order:
     address and length of each)."""
     def f(k):
-        return _array_at(tab[2 * k], (tab[2 * k + 1],), 0.0)
+        return array_at(tab[2 * k], (tab[2 * k + 1],), 0.0)
 
-    flag = _array_at(tab[12], (tab[13],), 0)
+    flag = array_at(tab[12], (tab[13],), 0)
     return (f(0), f(1), (f(2), f(3))), (f(4), f(5), flag, f(7), f(8), f(9), f(10)), f(11)
 
 
 @jit_entry
 def setup_entry(table_address):
     """`setup` of the set-up table at ``table_address`` (int64 words, `SETUP_ARRAYS`)."""
-    inp, out, sc = setup_table(_array_at(table_address, (np.int64(N_SETUP_TABLE),), 0))
+    inp, out, sc = setup_table(array_at(table_address, (np.int64(N_SETUP_TABLE),), 0))
     return setup(inp, out, sc)
 
 

@@ -2,7 +2,8 @@
 model with no Python and no numba, and gives the Python API's bits.
 
 The program goes through the C model part (`fmu_src/c/gearpair_model.c`) as an FMU's C layer
-will, and restores a state it copied halfway, which must repeat the second half. The object
+will, restores a state it copied halfway, which must repeat the second half, and runs two
+more instances in two threads at once, which must repeat the serial run. The object
 is numba's own code for the portable CPU, so the comparison is bit for bit, for several
 scenes: stick-slip, own gear geometry, each stiffness law, backlash with the exact
 propagator, the torsional model with Dormand-Prince 5(4). The program runs with an empty
@@ -56,7 +57,7 @@ def engine_run(tmp_path_factory):
     assert aot.undefined_symbols(made["object"]) == sorted(aot.LIBC)
     exe = where / "engine_run"
     c = ROOT / "fmu_src" / "c"
-    subprocess.run(["cc", "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
+    subprocess.run(["cc", "-O2", "-pthread", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
                     str(c / "engine_run.c"), str(c / "gearpair_model.c"), made["object"],
                     f"-I{where}", f"-I{c}", "-lm"], check=True)
     return exe
@@ -85,9 +86,9 @@ def test_the_c_program_gives_the_python_bits(engine_run, case):
         " ".join(repr(float(v)) for v in S.choice_vector(
             p, fx, rtol=rtol, options=FastOptions(**opts))) + "\n" + \
         " ".join(repr(v) for v in (run[0], run[1], run[2], torque, speed)) + "\n"
-    proc = subprocess.run([str(engine_run)], input=text, capture_output=True, text=True,
-                          env={}, timeout=120)
-    assert proc.returncode == 0, proc.stderr
+    proc = subprocess.run([str(engine_run), "--threads"], input=text, capture_output=True,
+                          text=True, env={}, timeout=120)
+    assert proc.returncode == 0, proc.stderr  # (also two instances in two threads at once)
     got = np.array([[float.fromhex(w) for w in line.split()]
                     for line in proc.stdout.splitlines()])
     want = _python_records(p, fx, opts, rtol, run)

@@ -5,11 +5,14 @@
  * initialization and after every step, each number as %a (exact bits), as a master would
  * step it (from the engine's time t to t + dt). Then restores the state it copied halfway
  * and steps the second half again, which must repeat the same bits.
+ * With the argument --threads it also runs two more instances at once, each in a thread
+ * of its own, which must give the serial run's bits.
  * Exit 0; 2 on bad input or a refused set-up (the reason on stderr); 3 when a step fails;
- * 4 when the restored state does not repeat the run.
+ * 4 when the restored state does not repeat the run; 5 when a thread's run differs.
  *
- * Build: cc -O2 -o engine_run engine_run.c gearpair_model.c gearpair_engine.o -lm
+ * Build: cc -O2 -pthread -o engine_run engine_run.c gearpair_model.c gearpair_engine.o -lm
  * (the header gearpair_engine.h beside the object, written with it). */
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,7 +39,52 @@ static int run(GpModel *m, double t, double dt, long i0, long steps, double *rec
     return 0;
 }
 
-int main(void) {
+typedef struct {
+    const double *gear, *choice;
+    double t0, dt, torque, speed;
+    long steps;
+    double *rec;
+    int rc;
+} Job;
+
+/* A whole run of a new instance (a thread's work). */
+static void *job(void *arg) {
+    Job *j = arg;
+    int64_t st;
+    GpModel *m = gp_model_new(j->gear, j->choice, &st);
+    j->rc = 2;
+    if (m) {
+        double *x = gp_model_block(m);
+        x[GP_X_TORQUE] = j->torque;
+        x[GP_X_SPEED] = j->speed;
+        if (gp_model_init(m, j->t0) == GP_STEP_DONE)
+            j->rc = run(m, j->t0, j->dt, 0, j->steps, j->rec);
+        gp_model_free(m);
+    }
+    return NULL;
+}
+
+/* Two instances in two threads at once against the serial records ``rec``. */
+static int threads(Job proto, const double *rec) {
+    Job jobs[2] = {proto, proto};
+    pthread_t th[2];
+    size_t n = (size_t)proto.steps * GP_N_RECORD;
+    for (int i = 0; i < 2; i++) {
+        jobs[i].rec = calloc(n, sizeof(double));
+        if (!jobs[i].rec || pthread_create(&th[i], NULL, job, &jobs[i]) != 0) return 2;
+    }
+    int rc = 0;
+    for (int i = 0; i < 2; i++) {
+        pthread_join(th[i], NULL);
+        if (jobs[i].rc) rc = jobs[i].rc;
+        else if (memcmp(jobs[i].rec, rec, n * sizeof(double)) != 0) rc = 5;
+        free(jobs[i].rec);
+    }
+    if (rc == 5) fprintf(stderr, "a thread's run differs from the serial one\n");
+    return rc;
+}
+
+int main(int argc, char **argv) {
     double gear[GP_N_GEAR], choice[GP_N_CHOICE], t0, dt, torque, speed;
     long steps;
     for (int i = 0; i < GP_N_GEAR; i++)
@@ -75,6 +123,11 @@ int main(void) {
                (size_t)(steps - mid) * GP_N_RECORD * sizeof(double)) != 0)
         return fprintf(stderr, "the restored state did not repeat the run\n"), 4;
     gp_model_free(m);
+    if (argc > 1 && strcmp(argv[1], "--threads") == 0) {
+        Job proto = {gear, choice, t0, dt, torque, speed, steps, NULL, 0};
+        rc = threads(proto, rec);
+        if (rc) return rc;
+    }
     free(rec);
     free(again);
     free(half);

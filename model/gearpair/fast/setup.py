@@ -741,11 +741,24 @@ def tooth_compliances(p: GearParams, xi: np.ndarray, gear: int, *, root_segment:
 
 
 def geometry_vector(p: GearParams) -> np.ndarray:
-    """The geometry (`GEO_*`) of gear data ``p`` alone (`compliances_entry` at no position);
-    ValueError for gear data that cannot mesh."""
-    geo = np.zeros(N_GEO)
-    st = compliances_entry(gear_vector(p), np.zeros(0), np.int64(1),
-                           (True, math.nan, np.zeros(0), np.zeros(0)), geo, np.zeros((0, 14)))
-    if st != SETUP_OK:
-        raise ValueError(setup_message(st, geo))
-    return geo
+    """The geometry (`GEO_*`) of gear data ``p`` (`setup` with the constant law and a given
+    step bound: the geometry is all that is computed besides a few constants); ValueError
+    for gear data that cannot mesh. The set-up's one entry point serves it, so a first run
+    compiles no other for the geometry."""
+    from ..effects import StiffnessSpec
+
+    opts = _GeometryOnly()
+    return run_setup(p, stiffness=StiffnessSpec("constant"), options=opts).geo
+
+
+class _GeometryOnly(NamedTuple):
+    """`FastOptions` for `geometry_vector`: a step bound given (no eigenproblem)."""
+
+    atol: float | None = None
+    max_step: float | None = 1.0
+    n_samples: int = 8
+    sample_spacing: float | None = None
+    t_tol: float = 1e-14
+    max_events: int = 100_000
+    exact_lti: bool = True
+    method: str = "dop853"

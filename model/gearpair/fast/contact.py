@@ -84,6 +84,13 @@ def back_compression(par, delta):
 
 
 @jit_hot
+def dte_of(y):
+    """The dynamic transmission error (m) of the state (or propagator state) ``y``: the mesh
+    deflection delta = y1 - y2 + u1 + u2 along the line of action, Eq. (3)."""
+    return y[1] - y[4] + y[2] + y[5]
+
+
+@jit_hot
 def flank_compression(par, delta, cs):
     """Mesh compression (m) of contact code ``cs`` at DTE ``delta``: delta on the drive
     flanks, `back_compression` on the back flanks (cs 2); the mesh force is km times it
@@ -221,7 +228,7 @@ def mesh_forces(md, wk, pc, s, s_idx, y):
         pw[W_DK, i] = dk
         pw[W_K, i] = k
         km += k
-    delta = y[1] - y[4] + y[2] + y[5]
+    delta = dte_of(y)
     ddelta = y[7] - y[10] + y[8] + y[11]
     cs = pc.cs
     theta = 0.0 if cs == 1 else 1.0
@@ -450,7 +457,7 @@ def param_rate(md, wk, pc, s_idx, y):
     dkm = 0.0
     for i in range(pc.nact):
         dkm += md.k_slope[table_index(md, pair_xi(mp, s_idx, wk.active[i]))]
-    comp = flank_compression(mp, y[1] - y[4] + y[2] + y[5], pc.cs)
+    comp = flank_compression(mp, dte_of(y), pc.cs)
     return 0.5 * dkm * mp[P_RB1] * pc.speed * comp * comp
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from ..engine import G_START
 from ..jitcache import jit, jit_hot
 from .contact import (
+    dte_of,
     evaluate,
     event_values,
     flank_compression,
@@ -155,7 +156,7 @@ def events_light(md, wk, pc, hs, t, yk, g):
     if md.flag[I_FRIC] == FR_STICK and sep == 0 and any_stuck(md, hs.stuck):
         return events_at(md, wk, pc, hs, t, yk, g)
     s = pc.s0 + mp[P_RB1] * pc.speed * (t - pc.t0)
-    delta = yk[1] - yk[4] + yk[2] + yk[5]
+    delta = dte_of(yk)
     n = sep_event_values(md, sep, delta, g)
     if md.flag[I_FRIC] == FR_STICK and sep == 0:
         for i in range(pc.nact):
@@ -167,12 +168,6 @@ def events_light(md, wk, pc, hs, t, yk, g):
         xi = pair_xi(mp, s, act[i])
         km += pair_k(md, xi, xi, pc.nact)
     return km * flank_compression(mp, delta, sep)
-
-
-@jit_hot
-def dte_of(y):
-    """The dynamic transmission error (m) of the state y (`contact` module: delta)."""
-    return y[1] - y[4] + y[2] + y[5]
 
 
 @jit_hot

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 from ..jitcache import jit, jit_hot
-from .contact import flank_compression, pair_k, pair_k_and_slope, pair_xi, table_index
+from .contact import dte_of, flank_compression, pair_k, pair_k_and_slope, pair_xi, table_index
 from .events import extend, interp, record_force
 from .layout import (
     I_KIND,
@@ -85,7 +85,7 @@ def cubic_turns(f0, d0, f1, d1, h):
 def compression(md, pc, y):
     """Mesh compression (m) at state y: delta on the drive flank, delta + b on the back
     flank (the mesh force is km times it; apart it is not used)."""
-    return flank_compression(md.par, y[1] - y[4] + y[2] + y[5], pc.cs)
+    return flank_compression(md.par, dte_of(y), pc.cs)
 
 
 @jit_hot
@@ -321,7 +321,7 @@ def exact_terms(md, A, z, km, cs):
     from the rows of A z, as `lti.lti_dd`)."""
     if cs == 1:
         return 0.0, 0.0, 0.0
-    comp = flank_compression(md.par, z[1] - z[4] + z[2] + z[5], cs)
+    comp = flank_compression(md.par, dte_of(z), cs)
     dd = 0.0
     for m in range(NZ):
         dd += (A[7, m] - A[10, m] + A[8, m] + A[11, m]) * z[m]

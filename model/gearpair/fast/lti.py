@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from ..jitcache import jit, jit_hot
-from .contact import flank_compression, n_events, pair_k, pair_xi, rhs, solve_small
+from .contact import dte_of, flank_compression, n_events, pair_k, pair_xi, rhs, solve_small
 from .detlinalg import balance_n
 from .events import (
     events_at,
@@ -339,7 +339,7 @@ def lti_quiet(md, A, z, cs, W):
 def comp_of(par, z, cs):
     if cs == 1:
         return 0.0
-    return flank_compression(par, z[1] - z[4] + z[2] + z[5], cs)
+    return flank_compression(par, dte_of(z), cs)
 
 
 @jit_hot

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 from ..jitcache import jit
+from .contact import dte_of
 from .detlinalg import OK, solve_into
 from .layout import (
     I_BACK,
@@ -151,7 +152,7 @@ def reset_state(md, wk, hs, start):
     status = OK
     if static and torque != 0.0:
         status = static_deflection(md, wk, torque, km, y)
-    delta = y[1] - y[4] + y[2] + y[5]
+    delta = dte_of(y)
     for i in range(mode.shape[0]):
         mode[i] = 0
     code = 0  # `Model.contact_code`: drive flank, apart, back flank

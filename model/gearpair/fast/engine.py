@@ -4,7 +4,6 @@ records they take (`layout`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -88,52 +87,11 @@ from .layout import (
 )
 from .loop import eval_entry, outputs_entry, reset_entry, run_grid_entry
 from .native import compiled, handoff_table, step_entry, step_lti_entry
-from .setup import run_setup
+from .setup import FastOptions, run_setup  # noqa: F401 - FastOptions re-exported
 from .setupmath import row_sum
-from .tableaux import METHOD_CODE, RK_NK
+from .tableaux import RK_NK
 
 _new = tuple.__new__
-
-
-@dataclass(frozen=True)
-class FastOptions:
-    """Integrator options of `FastEngine` (keywords of its constructor).
-
-    Attributes
-    ----------
-    atol : absolute tolerance (all states); default ``rtol`` times typical magnitudes
-        (1e-5 m, 1e-3 m/s, 1 J), as the reference
-    max_step : largest step (s); default half the period of the highest slip-model mode
-    n_samples, sample_spacing : every accepted step is scanned for sign changes at
-        dense-output samples at most ``sample_spacing`` apart (default
-        ``max_step / (n_samples + 1)``: the spacing of the reference's 8 interior samples on
-        its longest step); short steps are checked at their end only
-    t_tol : time tolerance (s) of the event refinement (plus 8 ulp of t)
-    max_events : bound on switches per `advance` call; more raises RuntimeError (a stall)
-    exact_lti : with friction off and constant or rectangular stiffness the equations have
-        constant coefficients between switches; integrate them with the exact propagator
-        ``expm(A h)`` (`lti.piece_lti`) instead of Runge-Kutta. False keeps Runge-Kutta
-        (for comparison).
-    method : ``"dop853"`` (default) or ``"dp5"``, the Runge-Kutta pair (`tableaux`);
-        ``gearpair bench`` compares the two
-    """
-
-    atol: float | None = None
-    max_step: float | None = None
-    n_samples: int = 8
-    sample_spacing: float | None = None
-    t_tol: float = 1e-14
-    max_events: int = 100_000
-    exact_lti: bool = True
-    method: str = "dop853"
-
-    def __post_init__(self) -> None:
-        if self.method not in METHOD_CODE:
-            raise ValueError(f"method = {self.method!r} is not known; allowed "
-                             f"{', '.join(sorted(METHOD_CODE))}")
-        if not (1 <= int(self.n_samples) <= 1000):
-            raise ValueError(f"n_samples = {self.n_samples!r} is out of range; allowed "
-                             "[1, 1000]")
 
 
 def work_buffers(n: int) -> Work:

@@ -25,7 +25,7 @@ contact ratio) are made here, so every front door refuses the same gear data.
 from __future__ import annotations
 
 import math
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from typing import NamedTuple
 
 import numpy as np
@@ -90,6 +90,7 @@ from .layout import (
     Y_A,
     ModelData,
 )
+from .tableaux import METHOD_CODE
 from .views import array_at, dims, word
 
 # -- inputs -----------------------------------------------------------------------------------
@@ -636,6 +637,47 @@ def compliances_entry(gp, xi, gear, opts, geo, out):
 
 
 # -- Python -----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FastOptions:
+    """Integrator options of `FastEngine` (keywords of its constructor).
+
+    Attributes
+    ----------
+    atol : absolute tolerance (all states); default ``rtol`` times typical magnitudes
+        (1e-5 m, 1e-3 m/s, 1 J), as the reference
+    max_step : largest step (s); default half the period of the highest slip-model mode
+    n_samples, sample_spacing : every accepted step is scanned for sign changes at
+        dense-output samples at most ``sample_spacing`` apart (default
+        ``max_step / (n_samples + 1)``: the spacing of the reference's 8 interior samples on
+        its longest step); short steps are checked at their end only
+    t_tol : time tolerance (s) of the event refinement (plus 8 ulp of t)
+    max_events : bound on switches per `advance` call; more raises RuntimeError (a stall)
+    exact_lti : with friction off and constant or rectangular stiffness the equations have
+        constant coefficients between switches; integrate them with the exact propagator
+        ``expm(A h)`` (`lti.piece_lti`) instead of Runge-Kutta. False keeps Runge-Kutta
+        (for comparison).
+    method : ``"dop853"`` (default) or ``"dp5"``, the Runge-Kutta pair (`tableaux`);
+        ``gearpair bench`` compares the two
+    """
+
+    atol: float | None = None
+    max_step: float | None = None
+    n_samples: int = 8
+    sample_spacing: float | None = None
+    t_tol: float = 1e-14
+    max_events: int = 100_000
+    exact_lti: bool = True
+    method: str = "dop853"
+
+    def __post_init__(self) -> None:
+        if self.method not in METHOD_CODE:
+            raise ValueError(f"method = {self.method!r} is not known; allowed "
+                             f"{', '.join(sorted(METHOD_CODE))}")
+        if not (1 <= int(self.n_samples) <= 1000):
+            raise ValueError(f"n_samples = {self.n_samples!r} is out of range; allowed "
+                             "[1, 1000]")
+
+
 class Setup(NamedTuple):
     """What `run_setup` gives: the geometry (`GEO_*`) and the engine's model data."""
 
@@ -654,7 +696,6 @@ def choice_vector(p: GearParams, effects=None, *, stiffness=None, rtol: float = 
     law) and of the integrator ``options`` (a `FastOptions`; default its defaults)."""
     from ..effects import Effects
     from .layout import FRICTION_CODE
-    from .tableaux import METHOD_CODE
 
     fx = Effects() if effects is None else effects
     spec = fx.stiffness if stiffness is None else stiffness
@@ -668,15 +709,13 @@ def choice_vector(p: GearParams, effects=None, *, stiffness=None, rtol: float = 
     ch[C_MUS] = float(p.mu if fx.mu_static is None else fx.mu_static)
     ch[C_VS] = float(fx.stribeck_velocity or 0.0)
     ch[C_RTOL], ch[C_TABMEAN] = float(rtol), float(table_mean)
-    if options is not None:
-        for c, v in ((C_ATOL, options.atol), (C_MAXSTEP, options.max_step),
-                     (C_SPACING, options.sample_spacing)):
-            ch[c] = math.nan if v is None else float(v)
-    ch[C_NSAMP] = 8 if options is None else int(options.n_samples)
-    ch[C_TTOL] = 1e-14 if options is None else float(options.t_tol)
-    ch[C_MAXEV] = 100_000 if options is None else int(options.max_events)
-    ch[C_LTI] = 1.0 if options is None else float(bool(options.exact_lti))
-    ch[C_METHOD] = METHOD_CODE["dop853" if options is None else options.method]
+    op = FastOptions() if options is None else options
+    for c, v in ((C_ATOL, op.atol), (C_MAXSTEP, op.max_step),
+                 (C_SPACING, op.sample_spacing)):
+        ch[c] = math.nan if v is None else float(v)
+    ch[C_NSAMP], ch[C_TTOL] = int(op.n_samples), float(op.t_tol)
+    ch[C_MAXEV], ch[C_LTI] = int(op.max_events), float(bool(op.exact_lti))
+    ch[C_METHOD] = METHOD_CODE[op.method]
     return ch
 
 
@@ -747,18 +786,5 @@ def geometry_vector(p: GearParams) -> np.ndarray:
     compiles no other for the geometry."""
     from ..effects import StiffnessSpec
 
-    opts = _GeometryOnly()
-    return run_setup(p, stiffness=StiffnessSpec("constant"), options=opts).geo
-
-
-class _GeometryOnly(NamedTuple):
-    """`FastOptions` for `geometry_vector`: a step bound given (no eigenproblem)."""
-
-    atol: float | None = None
-    max_step: float | None = 1.0
-    n_samples: int = 8
-    sample_spacing: float | None = None
-    t_tol: float = 1e-14
-    max_events: int = 100_000
-    exact_lti: bool = True
-    method: str = "dop853"
+    return run_setup(p, stiffness=StiffnessSpec("constant"),
+                     options=FastOptions(max_step=1.0)).geo

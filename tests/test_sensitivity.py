@@ -17,7 +17,8 @@ RANGES = {"mu": (0.01, 0.05), "torque": (1000.0, 4000.0), "speed_rpm": (100.0, 6
 A, B = 7.0, 0.1
 S1_EXACT = (0.3139, 0.4424, 0.0)
 ST_EXACT = (0.5576, 0.4424, 0.2437)
-N_SOBOL = 128  # base sample: 640 points (~30 s serial through the store); intervals ~ +-0.15
+N_SOBOL = 128  # base sample: 640 points (~20 s serial through the store, run once for the
+#                file); intervals ~ +-0.15
 
 
 def _ishigami(point):
@@ -26,10 +27,24 @@ def _ishigami(point):
     return {"stick_ratio": y}
 
 
-def test_sobol_ishigami_within_intervals(tmp_path):
-    with sa.model_hook(_ishigami):
-        ds = sa.run_sensitivity(RANGES, "sobol", N_SOBOL, ("stick_ratio",),
-                                store=tmp_path / "s.zarr", scheduler="serial", progress=False)
+@pytest.fixture(scope="module")
+def sobol(tmp_path_factory):
+    """The Sobol indices of the Ishigami function at ``N_SOBOL`` and their points' store."""
+    store = tmp_path_factory.mktemp("sobol") / "s.zarr"
+    calls = []
+
+    def f(point):
+        calls.append(1)
+        return _ishigami(point)
+
+    with sa.model_hook(f):
+        ds = sa.run_sensitivity(RANGES, "sobol", N_SOBOL, ("stick_ratio",), store=store,
+                                scheduler="serial", progress=False)
+    return ds, store, len(calls)
+
+
+def test_sobol_ishigami_within_intervals(sobol):
+    ds, store, _ = sobol
     s1 = ds["S1"].sel(output="stick_ratio").values
     st = ds["ST"].sel(output="stick_ratio").values
     s1c = ds["S1_conf"].sel(output="stick_ratio").values
@@ -38,10 +53,12 @@ def test_sobol_ishigami_within_intervals(tmp_path):
     assert np.all(np.abs(s1 - S1_EXACT) <= s1c), (s1, s1c)
     assert np.all(np.abs(st - ST_EXACT) <= stc), (st, stc)
     assert np.all(s1c < 0.25) and np.all(stc < 0.25)  # intervals narrow enough to mean something
-    assert sa.sensitivity_path(tmp_path / "s.zarr").exists()
+    assert sa.sensitivity_path(store).exists()
 
 
-def test_resume_runs_nothing_again(tmp_path):
+def test_resume_runs_nothing_again(sobol):
+    """The first run ran every point once; the same run again on its store runs none."""
+    first, store, ran = sobol
     calls = []
 
     def f(point):
@@ -49,13 +66,11 @@ def test_resume_runs_nothing_again(tmp_path):
         return _ishigami(point)
 
     with sa.model_hook(f):
-        sa.run_sensitivity(RANGES, "sobol", 8, ("stick_ratio",), store=tmp_path / "s.zarr",
-                           scheduler="serial", progress=False)
-        first = len(calls)
-        ds = sa.run_sensitivity(RANGES, "sobol", 8, ("stick_ratio",),
-                                store=tmp_path / "s.zarr", scheduler="serial", progress=False)
-    assert first == 8 * 5 and len(calls) == first
-    assert ds.attrs["points"] == 40
+        ds = sa.run_sensitivity(RANGES, "sobol", N_SOBOL, ("stick_ratio",), store=store,
+                                scheduler="serial", progress=False)
+    assert ran == N_SOBOL * 5 and calls == []
+    assert ds.attrs["points"] == N_SOBOL * 5
+    assert ds["S1"].equals(first["S1"]) and ds["ST_conf"].equals(first["ST_conf"])
 
 
 def test_morris_ranks_ishigami(tmp_path):
@@ -67,11 +82,8 @@ def test_morris_ranks_ishigami(tmp_path):
     assert list(np.argsort(-mu)) == [1, 0, 2], mu
 
 
-def test_chart(tmp_path):
-    with sa.model_hook(_ishigami):
-        ds = sa.run_sensitivity(RANGES, "sobol", 16, ("stick_ratio",),
-                                store=tmp_path / "s.zarr", scheduler="serial", progress=False)
-    out = sa.plot_indices(ds, tmp_path / "s.png")
+def test_chart(sobol, tmp_path):
+    out = sa.plot_indices(sobol[0], tmp_path / "s.png")
     assert out.stat().st_size > 1000
 
 

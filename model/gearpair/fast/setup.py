@@ -146,11 +146,39 @@ H_FI_LO, H_FI_HI = H_FI_RANGE  # the range of rf / r_int
 SCALE = np.array([1e-5] * 6 + [1e-3] * 6 + [1.0] * 4 + [1e-5, 1e-3])
 
 
+# -- elementary functions: one copy each in the set-up's code ------------------------------------
+# `detmath`'s are always inlined (the engine calls them at few sites); the set-up calls them
+# at some fifteen, where inlined copies cost compile time and save nothing measurable
+@jit
+def sin_(x):
+    return dm.sin(x)
+
+
+@jit
+def cos_(x):
+    return dm.cos(x)
+
+
+@jit
+def tan_(x):
+    return dm.tan(x)
+
+
+@jit
+def asin_(x):
+    return dm.asin(x)
+
+
+@jit
+def acos_(x):
+    return dm.acos(x)
+
+
 # -- geometry ---------------------------------------------------------------------------------
 @jit
 def base_radius(gp, z):
     """Base radius (m) of a gear of ``z`` teeth, module z cos(alpha) / 2."""
-    return gp[GP_MODULE] * z * dm.cos(gp[GP_ALPHA]) / 2.0
+    return gp[GP_MODULE] * z * cos_(gp[GP_ALPHA]) / 2.0
 
 
 @jit
@@ -162,12 +190,12 @@ def geometry_into(gp, geo):
     ra1 = m * z1 / 2 + gp[GP_HA] * m
     ra2 = m * z2 / 2 + gp[GP_HA] * m
     a = m * (z1 + z2) / 2
-    s1s2 = a * dm.sin(a0)
-    pb = math.pi * m * dm.cos(a0)
+    s1s2 = a * sin_(a0)
+    pb = math.pi * m * cos_(a0)
     s1a = s1s2 - math.sqrt(ra2 * ra2 - rb2 * rb2)
     s1e = math.sqrt(ra1 * ra1 - rb1 * rb1)
     vals = (rb1, rb2, ra1, ra2, m * z1 / 2 - gp[GP_HF] * m, m * z2 / 2 - gp[GP_HF] * m, a,
-            s1s2, pb, s1a, s1e - pb, rb1 * dm.tan(a0), s1a + pb, s1e)
+            s1s2, pb, s1a, s1e - pb, rb1 * tan_(a0), s1a + pb, s1e)
     for i in range(14):
         geo[i] = vals[i]
     if s1a < 0 or s1e > s1s2:
@@ -186,7 +214,7 @@ def gauss_legendre_into(t, w):
     convergence and one step more (not LAPACK's eigenvalues, whose bits vary by kernel)."""
     n = t.shape[0]
     for i in range(n):
-        x = dm.cos(np.pi * (i + 0.75) / (n + 0.5))
+        x = cos_(np.pi * (i + 0.75) / (n + 0.5))
         for _ in range(100):
             p1, dp = legendre(x, n)
             dx = p1 / dp
@@ -210,7 +238,7 @@ def legendre(x, n):
 @jit
 def inv(a):
     """Involute function tan(a) - a."""
-    return dm.tan(a) - a
+    return tan_(a) - a
 
 
 @jit
@@ -239,12 +267,12 @@ def tooth_root(rb, rf, alpha2):
     """(alpha at the root end of the involute, theta_f, x_root, h_b): below the base circle
     the straight part of half width h_b; above it only the involute above the root."""
     if rf < rb:
-        h_b = rb * dm.sin(alpha2)
-        return alpha2, dm.asin(min(h_b / rf, 1.0)), math.sqrt(max(rf * rf - h_b * h_b, 0.0)), \
+        h_b = rb * sin_(alpha2)
+        return alpha2, asin_(min(h_b / rf, 1.0)), math.sqrt(max(rf * rf - h_b * h_b, 0.0)), \
             h_b
-    c = dm.acos(rb / rf)
+    c = acos_(rb / rf)
     theta_f = alpha2 - inv(c)
-    return alpha2 - dm.tan(c), theta_f, rf * dm.cos(theta_f), 0.0
+    return alpha2 - tan_(c), theta_f, rf * cos_(theta_f), 0.0
 
 
 @jit
@@ -253,7 +281,7 @@ def involute_part(gp, rb, alpha2, a1, alpha_root, gauss):
     involute part, Gauss-Legendre over alpha in [-alpha1, alpha_root], summed in order."""
     t, w = gauss
     E, b = gp[GP_E], gp[GP_WIDTH]
-    c1, s1 = dm.cos(a1), dm.sin(a1)
+    c1, s1 = cos_(a1), sin_(a1)
     phi_c = a1 + alpha2
     x_c = rb * (c1 + phi_c * s1)
     h_c = rb * (phi_c * c1 - s1)
@@ -266,7 +294,7 @@ def involute_part(gp, rb, alpha2, a1, alpha_root, gauss):
     for k in range(t.shape[0]):
         al = lo + half * (t[k] + 1.0)
         roll = alpha2 - al
-        ca, sa = dm.cos(al), dm.sin(al)
+        ca, sa = cos_(al), sin_(al)
         x = rb * (ca - roll * sa)
         h = rb * (sa + roll * ca)
         dx = rb * roll * ca * half
@@ -290,11 +318,11 @@ def tooth_compliance(gp, geo, xi, gear, opts, out):
     alpha2 = math.pi / (2.0 * z) + inv(gp[GP_ALPHA])
     s1m = geo[GEO_S1A] + xi
     a1 = (s1m if gear == 1 else geo[GEO_S1S2] - s1m) / rb - alpha2  # the load angle
-    c1, s1 = dm.cos(a1), dm.sin(a1)
+    c1, s1 = cos_(a1), sin_(a1)
     alpha_root, theta_f, x_root, h_b = tooth_root(rb, rf, alpha2)
     bend, shear, axial, x_c, h_c = involute_part(gp, rb, alpha2, a1, alpha_root, gauss)
     if rf < rb and root_segment:  # the straight part below the base circle, in closed form
-        x_base = rb * dm.cos(alpha2)
+        x_base = rb * cos_(alpha2)
         d = x_base - x_root
         inertia_b = 2.0 * (h_b * h_b * h_b) * b / 3.0
         area_b = 2.0 * h_b * b
@@ -324,7 +352,7 @@ def fillet(gp, tooth, r_in, work):
     basis[5] = 1.0
     matvec_into(SAINSOT_COEFFS, basis, coef)
     u = (rb / c1 - x_root) / (2.0 * rf * theta_f)
-    ta = dm.tan(a1)
+    ta = tan_(a1)
     return (c1 * c1) / (gp[GP_E] * gp[GP_WIDTH]) \
         * (coef[0] * (u * u) + coef[1] * u + coef[2] * (1.0 + coef[3] * (ta * ta)))
 

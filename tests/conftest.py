@@ -18,13 +18,31 @@ def _build_module():
     return mod
 
 
-# Under pytest-xdist with --dist loadfile (scripts/test.sh) a worker takes whole files, in
-# collection order: the files with the longest tests (a compile of the whole engine in fresh
-# caches, the killed sweep client, the bench's quick run, reference-engine runs) go first,
-# so that no worker is left running one of them while the other has nothing to do.
-LONG_FILES = ("test_fmu_start.py", "test_same_bits.py", "test_sweep_grid.py", "test_core.py",
-              "test_detmath.py", "test_bench.py",
-              "test_static_friction.py", "test_effects.py", "test_fast_engine.py")
+# Under pytest-xdist with --dist loadfile (scripts/test.sh) a worker takes whole files: in the
+# order below (the other files after them, in collection order), each worker the next one
+# when it runs out. The longest go first, so that the two workers end within a short file of
+# each other. The first two start at once and compile what the other does not, once each:
+# test_fmu_start.py builds the FMU (its engine compiled for x86-64-v2) and compiles the FMU's
+# engine in a child with empty caches; test_golden.py compiles this process's engine for
+# every effect, method and driver into the numba cache, from which the other worker loads it
+# later (both compiling it at once at the start cost some 25 s). The files after them start
+# once the FMU is built: no worker waits for the other's build. The rest is in the order of
+# their CPU time in a fresh-cache run (test_same_bits.py's children load the engine that
+# test_golden.py compiled).
+LONG_FILES = ("test_fmu_start.py", "test_golden.py", "test_core.py", "test_engine_object.py",
+              "test_static_friction.py", "test_sweep_grid.py", "test_detmath.py",
+              "test_hosts.py", "test_bench.py", "test_same_bits.py", "test_effects.py",
+              "test_sensitivity.py", "test_fast_engine.py", "test_fmu_loading.py",
+              "test_fmu_harness.py", "test_detlinalg.py", "test_scenes.py",
+              "test_hard_cases.py", "test_sweep.py", "test_sweep_cluster.py",
+              "test_properties.py")
+
+
+def pytest_configure(config):
+    # xdist (3.x) hands out files by their number of tests unless told not to: keep the order
+    # of LONG_FILES (above)
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
 
 
 def pytest_collection_modifyitems(config, items):

@@ -175,8 +175,8 @@ def write_engine(folder: str | Path, package: str = "gearpair",
 
 
 def _key(package: str) -> str | None:
-    """The engine's key (`jitcache.KEY`) of ``package``, read without importing numba in
-    this process when it is the running package."""
+    """The engine's key (`jitcache.KEY`: the engine files' content) of ``package``, or
+    None when it cannot be read (then nothing is reused)."""
     import importlib
 
     try:

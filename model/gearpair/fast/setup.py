@@ -637,8 +637,10 @@ def setup_table(tab):
     def f(k):
         return array_at(tab[2 * k], (tab[2 * k + 1],), 0.0)
 
-    flag = array_at(tab[12], (tab[13],), 0)
-    return (f(0), f(1), (f(2), f(3))), (f(4), f(5), flag, f(7), f(8), f(9), f(10)), f(11)
+    def i(k):
+        return array_at(tab[2 * k], (tab[2 * k + 1],), 0)
+
+    return (f(0), f(1), (f(2), f(3))), (f(4), f(5), i(6), f(7), f(8), f(9), f(10)), f(11)
 
 
 @jit_entry

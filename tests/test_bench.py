@@ -52,8 +52,9 @@ def test_relative_error_on_the_reference_grid():
 
 def test_every_method_and_regime_has_a_row(quick):
     rows = quick["work_precision"]
-    methods = ENGINE_METHODS + (("FMU",) if HAS_FMU else ())
-    for regime in bench.REGIMES:
+    for regime in bench.WP_REGIMES:
+        # the FMU runs the paper's stiffness only; the rectangular regime is the engines'
+        methods = ENGINE_METHODS + (("FMU",) if HAS_FMU and regime in bench.REGIMES else ())
         for method in methods:
             mine = [r for r in rows if r["regime"] == regime and r["method"] == method]
             assert mine, (regime, method)
@@ -61,7 +62,8 @@ def test_every_method_and_regime_has_a_row(quick):
                 assert r["error"] is None, r
                 assert np.isfinite([r["wall_per_sim_s"], r["cpu_per_sim_s"], r["err_dte"],
                                     r["err_force"]]).all()
-    assert {e["regime"] for e in quick["equal_accuracy"]} == set(bench.REGIMES)
+    assert not [r for r in rows if r["regime"] == bench.RECTANGULAR and r["method"] == "FMU"]
+    assert [e["regime"] for e in quick["equal_accuracy"]] == list(bench.WP_REGIMES)
     for e in quick["equal_accuracy"]:
         assert set(e["best"]) >= set(ENGINE_METHODS)
         assert set(e["best_cpu"]) == set(e["best"])
@@ -78,13 +80,14 @@ def test_plain_scipy_is_cross_checked_against_the_reference(quick):
               if c["regime"] == "stick_slip"}
     assert set(checks) == {"reference DOP853", "plain DOP853"}
     plain = checks["plain DOP853"]
-    assert plain["horizon_s"] == bench.QUICK.window("stick_slip")
+    # over the whole run of the rows, where equal accuracy is judged, not only the window
+    assert plain["horizon_s"] == bench.QUICK.horizon
     assert plain["diff_dte"] < 1e-9 and plain["diff_force"] < 1e-9, plain
 
 
 @pytest.mark.parametrize("method", ["fast", "fast dp5"])
 def test_fast_core_converges_as_rtol_tightens(quick, method):
-    for regime in bench.REGIMES:
+    for regime in bench.WP_REGIMES:
         rows = sorted((r for r in quick["work_precision"]
                        if r["regime"] == regime and r["method"] == method),
                       key=lambda r: -r["rtol"])
@@ -257,6 +260,64 @@ def test_report_json_and_targets(quick):
     kinds = " ".join(t["target"] for t in quick["targets"])
     assert "scipy" in kinds and "stick-slip" in kinds and "ladder" in kinds
     assert "plain scipy" in kinds and "reference engine" in kinds
+
+
+def test_the_rectangular_regime_is_the_same_model_on_both_sides():
+    # the fast core (and the reference) and plain scipy take the regime's stiffness law
+    for regime in bench.WP_REGIMES:
+        assert bench.regime_effects(regime).stiffness.kind == bench.STIFFNESS_OF[regime]
+        assert bench.regime_effects(regime).friction == bench.FRICTION_OF[regime]
+    assert bench.STIFFNESS_OF[bench.RECTANGULAR] == "rectangular"
+    assert {bench.STIFFNESS_OF[r] for r in bench.REGIMES} == {"potential_energy"}
+    for s in bench.PRESETS.values():
+        assert s.wp_regimes == bench.WP_REGIMES
+
+
+def _wp_row(regime, method, rtol, wall, err, err_run=None):
+    return {"regime": regime, "method": method, "setting": f"rtol {rtol:g}", "rtol": rtol,
+            "step": 1e-4, "horizon_s": 0.1, "wall_per_sim_s": wall, "cpu_per_sim_s": wall,
+            "err_dte": err, "err_force": err,
+            "err_dte_horizon": err if err_run is None else err_run, "error": None}
+
+
+def test_equal_accuracy_counts_a_row_only_if_its_whole_run_meets_the_bar():
+    # plain DOP853 at rtol 1e-6 meets the bar over the window but loses a switch later
+    # (issue 37: 1.5e-3 over the run): it does not count, rtol 1e-8 is what it needs
+    rows = [_wp_row("stick_slip", "fast", 1e-6, 0.05, 3e-7),
+            _wp_row("stick_slip", "fast", 1e-8, 0.06, 3e-9),
+            _wp_row("stick_slip", "plain DOP853", 1e-6, 3.0, 3e-7, 1.5e-3),
+            _wp_row("stick_slip", "plain DOP853", 1e-8, 5.0, 5e-9),
+            _wp_row("stick_slip", "plain LSODA", 1e-6, 2.0, 2e-6),
+            _wp_row("stick_slip", "FMU", 1e-8, 0.06, 3e-9),
+            _wp_row(bench.RECTANGULAR, "fast", 1e-6, 0.05, 4e-7),
+            _wp_row(bench.RECTANGULAR, "plain DOP853", 1e-6, 2.5, 5e-7)]
+    ss, rect = bench.equal_accuracy(rows)
+    assert ss["best"]["plain DOP853"]["setting"] == "rtol 1e-08"
+    assert ss["best"]["plain LSODA"] is None  # run, not reached
+    assert ss["fastest_plain"] == "plain DOP853" and ss["ratio_plain"] == pytest.approx(100)
+    assert rect["regime"] == bench.RECTANGULAR and "FMU" not in rect["best"]  # not run
+    assert rect["ratio_plain"] == pytest.approx(50) and rect["ratio"] is None
+    from gearpair.bench.report import _claim, _equal_accuracy
+
+    result = {"settings": {"horizon": 0.1}, "equal_accuracy": [ss, rect],
+              "work_precision": rows}
+    text = "\n".join(_equal_accuracy(result))
+    assert "not reached" in text  # plain LSODA in stick_slip
+    fmu_line = next(line for line in text.splitlines() if line.startswith("FMU"))
+    assert fmu_line.split()[-1] == "-"  # the FMU is not run in the rectangular regime
+    claim = "\n".join(_claim(result))
+    assert "100 x" in claim and "50 x" in claim and "rtol 1e-08" in claim
+
+
+def test_a_short_run_says_its_ratios_do_not_stand_for_the_full_run(quick):
+    from dataclasses import asdict
+
+    from gearpair.bench.report import short_run_note
+
+    text = bench.report(quick)
+    assert text.index("do not stand for the full run") < text.index("Reference:")
+    assert short_run_note({"settings": asdict(bench.DEFAULT)}) == []
+    assert short_run_note({"settings": asdict(bench.FULL)}) == []
 
 
 def test_plot(quick, tmp_path):

@@ -3,8 +3,10 @@
 ``gearpair bench [--quick | --full] [--json] [--plot FILE] [--memory] [--fmu PATH]``
 measures in one run, side by side on the same machine:
 
-- **work-precision** for three regimes at the paper's low-speed point (3900 N.m, 100 r/min):
-  no friction, sliding (Coulomb friction in the nominal direction, no stick) and stick-slip.
+- **work-precision** for four regimes at the paper's low-speed point (3900 N.m, 100 r/min):
+  no friction, sliding (Coulomb friction in the nominal direction, no stick) and stick-slip
+  with the paper's potential-energy stiffness, and stick-slip with rectangular stiffness
+  (``stick_slip_rectangular``, work-precision and equal accuracy only).
   Every method starts from the static equilibrium at t = 0 and records DTE and mesh force on
   the same output grid; the error is the largest deviation from a tight reference divided by
   the reference's largest magnitude, the cost the wall time (and the CPU time) per simulated
@@ -13,10 +15,11 @@ measures in one run, side by side on the same machine:
   RK45, DOP853, Radau and LSODA, run as `gearpair.reference.ReferenceEngine` (scipy's
   ``OdeSolver`` classes, which ``solve_ivp`` drives, stepped segment by segment over the same
   physics); the same four as a user would write the model, `plain_scipy` (rows
-  ``plain <method>``: one numpy right-hand side per contact state, ``solve_ivp`` with
-  terminal events); the FMU through fmpy at communication steps 1e-5, 1e-4 and 1e-3 s.
-- **equal accuracy**: per method the cheapest setting with DTE error <= 1e-6, and the ratios
-  fastest scipy method / fast core, on the reference engine and written plainly.
+  ``plain <method>``: a right-hand side in Python floats per contact state, ``solve_ivp``
+  with terminal events); the FMU through fmpy at communication steps 1e-5, 1e-4 and 1e-3 s.
+- **equal accuracy**: per method the cheapest setting with DTE error <= 1e-6 over the
+  window and the whole run, and the ratios fastest scipy method / fast core, on the
+  reference engine and written plainly (the claim: both sides, their settings and errors).
 - **FMU cost** at a 1e-3 s step against the core at the same step (driven as the FMU drives
   it: one ``advance`` + ``outputs`` call per step) and the plumbing floor (the
   same fmpy call on a pythonfmu slave that does nothing, ``GearPairNoop.py`` beside this
@@ -82,10 +85,12 @@ from .settings import (
     PLAIN_PREFIX,
     PRESETS,
     QUICK,
+    RECTANGULAR,
     REGIMES,
     SCENES_DIR,
     SCIPY_MAX_EVENTS,
     SCIPY_METHODS,
+    STIFFNESS_OF,
     TARGET_ERROR,
     TARGET_FIRST_START_S,
     TARGET_FMU_FACTOR,
@@ -93,6 +98,7 @@ from .settings import (
     TARGET_MEMORY_MB,
     TARGET_SPEEDUP,
     TARGET_STICK_SLIP,
+    WP_REGIMES,
     Settings,
 )
 from .targets import targets
@@ -107,8 +113,9 @@ from .work_precision import (
 
 __all__ = [
     "DEFAULT", "FRICTION_OF", "FULL", "HOST_SOURCE", "LADDER", "LADDER_RUNS", "NEVER",
-    "NOOP_SCRIPT", "PLAIN_PREFIX", "PRESETS", "QUICK", "REGIMES", "SCENES_DIR",
-    "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "TARGET_ERROR", "TARGET_FIRST_START_S",
+    "NOOP_SCRIPT", "PLAIN_PREFIX", "PRESETS", "QUICK", "RECTANGULAR", "REGIMES",
+    "SCENES_DIR", "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "STIFFNESS_OF", "TARGET_ERROR",
+    "TARGET_FIRST_START_S", "WP_REGIMES",
     "TARGET_FMU_FACTOR", "TARGET_LADDER", "TARGET_MEMORY_MB",
     "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls", "accurate_rtol",
     "BudgetExceeded", "build_host", "build_noop", "clock", "core_step_costs",

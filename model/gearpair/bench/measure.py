@@ -15,7 +15,7 @@ from .fmu import build_noop, fmu_measurements, fmu_startup
 from .memory import memory_peak
 from .plain import plain_rows
 from .runs import _record, _record_calls, machine_info, regime_effects
-from .settings import DEFAULT, LADDER, REGIMES, Progress, Settings, _quiet
+from .settings import DEFAULT, LADDER, REGIMES, WP_REGIMES, Progress, Settings, _quiet
 from .targets import targets
 from .work_precision import _step_rtols, core_step_costs, engine_rows, equal_accuracy, references
 
@@ -27,13 +27,14 @@ FMU_BUNDLE = "_gearpair_fmu"
 def warm_up(progress: Progress = _quiet) -> float:
     """Load (or compile, once per engine change) every compiled path of the fast engine
     that the benchmark times: the grid recorder and the per-step ``advance`` of each regime
-    and ladder rung (the exact propagator included), so no timed run compiles."""
+    (the rectangular one included) and ladder rung (the exact propagator included), so no
+    timed run compiles."""
     from .. import jitcache, make_engine
     from ..effects import Effects
 
     before = jitcache.STATS["compiled"]
     t0 = time.perf_counter()
-    for fx in [regime_effects(r) for r in REGIMES] + [Effects(**kw) for _, kw in LADDER]:
+    for fx in [regime_effects(r) for r in WP_REGIMES] + [Effects(**kw) for _, kw in LADDER]:
         _record(make_engine(None, fx, "fast"), 0.002, 1e-3)
         _record_calls(make_engine(None, fx, "fast"), 0.002, 1e-3)
     wall = time.perf_counter() - t0

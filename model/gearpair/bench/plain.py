@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from . import plain_scipy
 from .runs import Timing, _errors, clock, relative_error, time_limit
-from .settings import FRICTION_OF, PLAIN_PREFIX, REGIMES, Progress, Settings, _quiet
+from .settings import FRICTION_OF, PLAIN_PREFIX, STIFFNESS_OF, Progress, Settings, _quiet
 from .work_precision import _FAILED, _NO_ERRORS, _row
 
 
@@ -12,7 +12,8 @@ def plain_run(regime: str, method: str, rtol: float, t_end: float,
               dt: float) -> tuple[Timing, dict]:
     """One plain run from the static start at the default point, recorded every ``dt``;
     the model's construction (parameters, stiffness spline) is not timed."""
-    model = plain_scipy.PlainGearPair(FRICTION_OF[regime], rtol, method)
+    model = plain_scipy.PlainGearPair(FRICTION_OF[regime], rtol, method,
+                                      stiffness=STIFFNESS_OF[regime])
     t0 = clock()
     got = model.simulate(t_end, dt)
     return clock() - t0, {k: got[k] for k in ("time", "dte", "mesh_force")}
@@ -21,10 +22,10 @@ def plain_run(regime: str, method: str, rtol: float, t_end: float,
 def plain_rows(s: Settings, refs: dict, progress: Progress = _quiet
                ) -> tuple[list[dict], list[dict]]:
     """Work-precision rows (methods ``plain <scipy method>``, over ``s.horizon``) and the
-    cross-check of plain DOP853 at ``ref_rtol`` against the reference over each regime's
-    window."""
+    cross-check of plain DOP853 at ``ref_rtol`` against the reference over the same
+    ``s.horizon``, every regime of the work-precision tables."""
     rows, checks = [], []
-    for regime in REGIMES:
+    for regime in s.wp_regimes:
         for method, rtols in s.plain_rtols:
             for rtol in rtols:
                 rows.append(_plain_row(s, refs[regime], regime, method, rtol))
@@ -51,9 +52,10 @@ def _plain_row(s: Settings, ref: dict, regime: str, method: str, rtol: float) ->
 
 
 def _plain_check(s: Settings, ref: dict, regime: str) -> dict:
-    """Plain DOP853 at the reference tolerance over the regime's window against the
-    reference: two independent implementations of the model."""
-    w = s.window(regime)
+    """Plain DOP853 at the reference tolerance against the reference over the whole run of
+    the work-precision rows (``s.horizon``, where equal accuracy is judged): two
+    independent implementations of the model."""
+    w = s.horizon
     took, sig = plain_run(regime, "DOP853", s.ref_rtol, w, s.dt)
     return {"regime": regime, "engine": PLAIN_PREFIX + "DOP853", "horizon_s": w,
             "rtol": s.ref_rtol, "dop853_wall_per_sim_s": took.wall / w,

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .settings import FRICTION_OF, REGIMES, TARGET_ERROR
+from .report import describe, regimes_of
+from .settings import TARGET_ERROR
 
 
 def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
@@ -15,8 +16,9 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
         from matplotlib.figure import Figure
     except ImportError:
         raise ImportError("--plot needs matplotlib: pip install 'gearpair[plot]'") from None
-    fig = Figure(figsize=(13.0, 7.5), layout="constrained")
-    ax = fig.subplots(2, len(REGIMES), sharex=True, sharey="row")
+    regimes = regimes_of(result)
+    fig = Figure(figsize=(4.4 * len(regimes), 7.5), layout="constrained")
+    ax = fig.subplots(2, len(regimes), sharex=True, sharey="row", squeeze=False)
     from matplotlib import colormaps
 
     tab20 = colormaps["tab20"]
@@ -26,7 +28,7 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
     markers = {"fast": "o", "fast dp5": "x", "RK45": "s", "DOP853": "D", "Radau": "^",
                "LSODA": "v", "FMU": "*", "plain": "P"}  # by the method, else its first word
     rows = result["work_precision"]
-    for j, regime in enumerate(REGIMES):
+    for j, regime in enumerate(regimes):
         mine = [r for r in rows if r["regime"] == regime]
         lines: dict[str, list[dict]] = {}
         for r in mine:
@@ -50,7 +52,7 @@ def plot(result: dict, path: str | Path, clock: str = "wall") -> None:
             a.axhline(TARGET_ERROR, color="0.5", lw=0.8, ls="--")
             a.grid(True, which="both", lw=0.3)
             if i == 0:
-                a.set_title(f"{regime} (friction {FRICTION_OF[regime]})")
+                a.set_title(f"{regime}\n({describe(regime)})", fontsize="medium")
             else:
                 a.set_xlabel(f"{'CPU' if clock == 'cpu' else 'wall'} time per simulated "
                              "second (s)")

@@ -8,7 +8,14 @@ from statistics import median
 import numpy as np
 
 from .chost import exit_note
-from .settings import FRICTION_OF, REGIMES, TARGET_ERROR, TARGET_FMU_FACTOR
+from .settings import (
+    DEFAULT,
+    FRICTION_OF,
+    STIFFNESS_OF,
+    TARGET_ERROR,
+    TARGET_FMU_FACTOR,
+    TARGET_SPEEDUP,
+)
 
 
 def _fmt(x, spec: str = ".3g") -> str:
@@ -44,8 +51,37 @@ def report(result: dict) -> str:
     return "\n".join(out)
 
 
+def regimes_of(result: dict) -> list[str]:
+    """The regimes of the work-precision tables of a result, in their order."""
+    return [r for r, _ in result["settings"]["windows"]]
+
+
+def describe(regime: str) -> str:
+    """A regime's friction law and, where it is not the paper's, its stiffness law."""
+    law = STIFFNESS_OF.get(regime, "potential_energy")
+    return f"friction {FRICTION_OF[regime]}" + (
+        f", {law} stiffness" if law != "potential_energy" else "")
+
+
+def short_run_note(result: dict) -> list[str]:
+    """What a run on short windows (``--quick``) measures and does not, or nothing."""
+    s = result["settings"]
+    if s["name"] != "quick" and s["horizon"] >= DEFAULT.horizon:
+        return []
+    wins = ", ".join(f"{r} {w:g} s" for r, w in s["windows"])
+    return [f"NOTE ({s['name']} settings): short windows, {s['horizon']:g} s simulated per "
+            f"fast-core and plain-scipy run ({wins} for scipy on the reference engine), "
+            f"{s['repeats']} timed repeat(s), {len(s['fast_rtols'])} tolerances of the fast "
+            "core. They test the bench's code. Their costs are mostly the start of each run "
+            "(the static equilibrium, the first steps, solve_ivp's set-up), which a long "
+            "run spreads out, and they hold no pair entry, exit or stick (the first, a "
+            "pair exit, comes at 13.6 ms). So their ratios and target verdicts do not stand "
+            "for the full run: quote `gearpair bench` (0.1 s runs).", ""]
+
+
 def _header(result: dict) -> list[str]:
-    """Title, machine, software, reference and error definition, cross-check."""
+    """Title, machine, software, what a short run does not measure, reference and error
+    definition, cross-check."""
     m, s = result["machine"], result["settings"]
     out = [f"gearpair bench ({s['name']}), {m['date']}",
            f"machine: {m['cpu']}, {m['cores']} cores ({m['usable_cores']} usable), "
@@ -55,10 +91,13 @@ def _header(result: dict) -> list[str]:
            f"numba {m['numba']}, fmpy {m['fmpy']}, pythonfmu {m['pythonfmu']}; "
            f"commit {m['commit']}",
            f"total wall time {result['wall_s']:.0f} s", ""]
+    out += short_run_note(result)
     ref = result["reference"]
     win = ", ".join(f"{r} {w:g} s" for r, w in s["windows"])
     out += [f"Reference: fast core at rtol {ref['rtol']:g}, output every {ref['dt']:g} s, "
-            "from the static start at 3900 N.m, 100 r/min. Error = max|x - x_ref| / "
+            "from the static start at 3900 N.m, 100 r/min (regimes: " + "; ".join(
+                f"{r}: {describe(r)}" for r in regimes_of(result)) + "). "
+            "Error = max|x - x_ref| / "
             f"max|x_ref| over the common window ({win}); the fast core and the FMU run "
             f"{s['horizon']:g} s ('whole run' error over all of it). Cost = time per "
             "simulated second of the stepping loop (engine built, FMU instantiated before).",
@@ -79,9 +118,9 @@ def _header(result: dict) -> list[str]:
 def _work_precision(result: dict) -> list[str]:
     """One work-precision table per regime."""
     out: list[str] = []
-    for regime in REGIMES:
+    for regime in regimes_of(result):
         rows = [r for r in result["work_precision"] if r["regime"] == regime]
-        out.append(f"Work-precision, {regime} (friction {FRICTION_OF[regime]}):")
+        out.append(f"Work-precision, {regime} ({describe(regime)}):")
         out.append(table(
             ["method", "setting", "simulated s", "wall s/s", "CPU s/s", "DTE error",
              "force error", "DTE err whole run"],
@@ -108,7 +147,9 @@ def _equal_accuracy(result: dict) -> list[str]:
                    f"{TARGET_ERROR:g} over the window and over its whole run, s/s:")
 
         def cell(e, mm, key=key, suffix=suffix):
-            b = e["best" + suffix].get(mm)
+            if mm not in e["best" + suffix]:
+                return "-"  # not run in this regime
+            b = e["best" + suffix][mm]
             return "not reached" if b is None else f"{b[key]:.3g} ({b['setting']})"
 
         def ratio(e, kind, suffix=suffix):
@@ -120,6 +161,37 @@ def _equal_accuracy(result: dict) -> list[str]:
         rows.append(["plain scipy / fast", *[ratio(e, "_plain") for e in acc]])
         out.append(table(["method", *[e["regime"] for e in acc]], rows))
         out.append("")
+    return out + _claim(result)
+
+
+def _claim(result: dict) -> list[str]:
+    """The speed claim: per regime the fast core and the fastest plain scipy method, each at
+    its cheapest setting that reaches the error bar, their errors and the ratio of costs."""
+    s = result["settings"]
+    out = [f"The claim: fast core against the fastest plain scipy method at equal accuracy "
+           f"(each at its cheapest setting with DTE error <= {TARGET_ERROR:g} against the "
+           f"reference, over the window and over its whole {s['horizon']:g} s run; target "
+           f">= {TARGET_SPEEDUP:g} x):"]
+    rows = []
+    for e in result["equal_accuracy"]:
+        fast, m = e["best"].get("fast"), e["fastest_plain"]
+        plain = e["best"].get(m) if m else None
+
+        def side(b):
+            if b is None:
+                return ["not reached", "-", "-"]
+            return [b["setting"], _fmt(b["wall_per_sim_s"]),
+                    f"{b['err_dte']:.1e} / {b['err_dte_horizon']:.1e}"]
+
+        cpu = e["ratio_plain_cpu"]
+        cpu_txt = "-" if cpu is None else f"{cpu:.0f} x" + (
+            f" ({e['fastest_plain_cpu']})" if e["fastest_plain_cpu"] != m else "")
+        rows.append([e["regime"], *side(fast), m or "none", *side(plain),
+                     "-" if e["ratio_plain"] is None else f"{e['ratio_plain']:.0f} x", cpu_txt])
+    out.append(table(["regime", "fast setting", "fast wall s/s", "fast DTE err window / run",
+                      "fastest plain", "its setting", "plain wall s/s",
+                      "plain DTE err window / run", "plain / fast wall", "CPU"], rows))
+    out.append("")
     return out
 
 
@@ -315,6 +387,7 @@ def _memory_and_targets(result: dict) -> list[str]:
                    f"RSS {mem['peak_rss_mb']:.0f} MB (after imports {mem['baseline_rss_mb']:.0f}"
                    f" MB), {mem['wall_s']:.0f} s of wall time.")
         out.append("")
+    out += short_run_note(result)
     out.append("Targets (measured in wall time, the target's measure, and in CPU time):")
     out.append(table(["target", "wall", "met", "CPU", "met (CPU)", "short by (wall)"],
                      [[t["target"], _fmt(t["measured"]), _fmt(t["met"]),

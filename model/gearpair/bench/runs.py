@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .settings import FRICTION_OF
+from .settings import FRICTION_OF, STIFFNESS_OF
 
 PACKAGE = Path(__file__).resolve().parents[1]  # this gearpair package
 
@@ -89,11 +89,12 @@ def _commit() -> str | None:
 
 # -- runs and errors ------------------------------------------------------------------------------
 def regime_effects(regime: str):
-    """The `Effects` of a regime: Table 1 gear pair, potential-energy stiffness, separation,
-    6-DOF; friction off, ``nominal`` (sliding) or ``stick_slip``."""
+    """The `Effects` of a regime: Table 1 gear pair, separation, 6-DOF; potential-energy
+    stiffness with friction off, ``nominal`` (sliding) or ``stick_slip``, or rectangular
+    stiffness with ``stick_slip`` (`settings.RECTANGULAR`)."""
     from ..effects import Effects
 
-    return Effects(friction=FRICTION_OF[regime])
+    return Effects(friction=FRICTION_OF[regime], stiffness=STIFFNESS_OF[regime])
 
 
 class Timing(NamedTuple):

@@ -14,8 +14,17 @@ HOST_SOURCE = HERE / "fmi2_bench_host.c"  # the C timing host
 SCENES_DIR = "examples/scenes"
 PLAIN_PREFIX = "plain "  # method names of its rows: "plain DOP853", ...
 
+# the regimes of every section (work-precision, step costs, FMU, targets): the paper's
+# potential-energy stiffness with three friction laws
 REGIMES = ("no_friction", "sliding", "stick_slip")
-FRICTION_OF = {"no_friction": "off", "sliding": "nominal", "stick_slip": "stick_slip"}
+# and one more of the work-precision and equal-accuracy tables only: stick-slip with the
+# rectangular stiffness law, where the plain scipy code can be set against other plain codes
+# of the model (issue 37 item 2)
+RECTANGULAR = "stick_slip_rectangular"
+WP_REGIMES = (*REGIMES, RECTANGULAR)
+FRICTION_OF = {"no_friction": "off", "sliding": "nominal", "stick_slip": "stick_slip",
+               RECTANGULAR: "stick_slip"}
+STIFFNESS_OF = {**dict.fromkeys(REGIMES, "potential_energy"), RECTANGULAR: "rectangular"}
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
 TARGET_ERROR = 1e-6  # DTE relative error of "equal accuracy"
 TARGET_SPEEDUP = 50.0  # fast core against the fastest scipy method
@@ -58,9 +67,11 @@ class Settings:
     ----------
     name : preset name
     horizon : simulated time of the fast-core and FMU work-precision runs
-    windows : per regime, the simulated time of the scipy runs; errors of every method are
-        compared over this common window (the stick-slip one contains the first stick at
-        about 0.015 s)
+    windows : per regime of the work-precision tables (the three `REGIMES`, which every
+        section runs, and `RECTANGULAR` unless left out), the simulated time of the scipy
+        runs on the reference engine; errors of every method are compared over this common
+        window (the stick-slip ones contain the first stick at about 0.015 s) and over the
+        whole run
     dt : output grid of the engine runs and of the reference
     fast_rtols : tolerances of the fast core
     fast_steps : communication steps of the fast core: ``dt`` (the common grid, the row
@@ -75,7 +86,8 @@ class Settings:
     ref_rtol : tolerance of the reference (fast core)
     check_horizon : simulated time of the cross-check of the reference against scipy DOP853
         at ``ref_rtol`` (the reference engine's); 0 skips it. The plain scipy implementation
-        is cross-checked at ``ref_rtol`` over each regime's window
+        is cross-checked at ``ref_rtol`` over ``horizon``, the whole run over which equal
+        accuracy is judged
     check_regimes : regimes cross-checked
     fmu_steps, fmu_rtols : communication steps and ``rtol`` parameter of the FMU rows
     step_horizon : simulated time of the costs at a 1e-3 s step (core, FMU, floor)
@@ -104,7 +116,7 @@ class Settings:
     name: str = "default"
     horizon: float = 0.1
     windows: tuple[tuple[str, float], ...] = (("no_friction", 0.005), ("sliding", 0.005),
-                                              ("stick_slip", 0.02))
+                                              ("stick_slip", 0.02), (RECTANGULAR, 0.02))
     dt: float = 1e-4
     fast_rtols: tuple[float, ...] = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
     fast_steps: tuple[float, ...] = (1e-4, 1e-3)
@@ -118,7 +130,7 @@ class Settings:
         ("Radau", (1e-5, 1e-6)), ("LSODA", (1e-5, 1e-6, 1e-7, 1e-8)))
     ref_rtol: float = 1e-12
     check_horizon: float = 0.002
-    check_regimes: tuple[str, ...] = REGIMES
+    check_regimes: tuple[str, ...] = WP_REGIMES
     fmu_steps: tuple[float, ...] = (1e-5, 1e-4, 1e-3)
     fmu_rtols: tuple[float, ...] = (1e-8,)
     step_horizon: float = 1.0
@@ -141,10 +153,16 @@ class Settings:
         """Simulated time of the scipy runs (and of the common error window) of a regime."""
         return dict(self.windows)[regime]
 
+    @property
+    def wp_regimes(self) -> tuple[str, ...]:
+        """The regimes of the work-precision and equal-accuracy tables (those with a
+        window)."""
+        return tuple(r for r, _ in self.windows)
+
 
 DEFAULT = Settings()
 QUICK = Settings(
-    name="quick", horizon=0.004, windows=tuple((r, 0.001) for r in REGIMES),
+    name="quick", horizon=0.004, windows=tuple((r, 0.001) for r in WP_REGIMES),
     fast_rtols=(1e-6, 1e-9),
     scipy_rtols=(("RK45", (1e-5, 1e-6)), ("DOP853", (1e-5, 1e-6)), ("Radau", (1e-5,)),
                  ("LSODA", (1e-5,))),
@@ -153,7 +171,7 @@ QUICK = Settings(
     host_n=100, host_blocks=2, host_rounds=3, round_spin=2_000_000,
     repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0)
 FULL = Settings(
-    name="full", windows=tuple((r, 0.02) for r in REGIMES),
+    name="full", windows=tuple((r, 0.02) for r in WP_REGIMES),
     fast_rtols=(1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11),
     scipy_rtols=(("RK45", (1e-4, 1e-5, 1e-6, 1e-7, 1e-8)),
                  ("DOP853", (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)),

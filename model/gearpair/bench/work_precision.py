@@ -37,13 +37,13 @@ def references(s: Settings, progress: Progress = _quiet) -> tuple[dict, list[dic
     """
     refs, checks = {}, []
     t_ref = max([s.horizon, *dict(s.windows).values()])
-    for regime in REGIMES:
+    for regime in dict.fromkeys((*REGIMES, *s.wp_regimes)):
         took, sig = engine_run(regime, "fast", t_ref, s.dt, rtol=s.ref_rtol)
         refs[regime] = {**sig, "dt": s.dt, "wall_s": took.wall}
         progress(f"reference {regime}: fast core rtol {s.ref_rtol:g}, {t_ref:g} s simulated "
                  f"in {took.wall:.2f} s")
     if s.check_horizon > 0:
-        for regime in s.check_regimes:
+        for regime in (r for r in s.check_regimes if r in refs):
             took, sig = engine_run(regime, "reference", s.check_horizon, s.dt,
                                    rtol=s.ref_rtol, method="DOP853")
             wall = took.wall
@@ -78,9 +78,10 @@ _FAILED = Timing(math.nan, math.nan)
 
 
 def engine_rows(s: Settings, refs: dict, progress: Progress = _quiet) -> list[dict]:
-    """Work-precision rows of the fast core and of the scipy methods, every regime."""
+    """Work-precision rows of the fast core and of the scipy methods, every regime of the
+    work-precision tables."""
     rows = []
-    for regime in REGIMES:
+    for regime in s.wp_regimes:
         w = s.window(regime)
         for step in s.fast_steps:
             for rtol in s.fast_rtols:
@@ -131,15 +132,16 @@ def _engine_row(regime: str, method: str, rtol: float, horizon: float, s: Settin
 
 
 def equal_accuracy(rows: list[dict], target: float = TARGET_ERROR) -> list[dict]:
-    """Per regime: each method's cheapest row (by wall time) with DTE error <= ``target``
-    over the common window and over its whole run (None: not reached), and the ratios to
-    the fast core of the fastest scipy method run as the reference engine (``ratio``,
+    """Per regime of ``rows`` (in their order): each method's cheapest row (by wall time)
+    with DTE error <= ``target`` over the common window and over its whole run (None: not
+    reached; a method without rows in the regime has no key), and the ratios to the fast
+    core of the fastest scipy method run as the reference engine (``ratio``,
     ``fastest_scipy``) and of the fastest plain scipy implementation (``ratio_plain``,
-    ``fastest_plain``: `gearpair.bench.plain_scipy`, what a user would write). The keys ending
-    in ``_cpu`` are the same comparison in CPU time (each method's cheapest row by CPU
-    time)."""
+    ``fastest_plain``: `gearpair.bench.plain_scipy`, what a user would write). The keys
+    ending in ``_cpu`` are the same comparison in CPU time (each method's cheapest row by
+    CPU time)."""
     out = []
-    for regime in REGIMES:
+    for regime in dict.fromkeys(r["regime"] for r in rows):
         # the target holds over the common window and over all the method ran: a switch
         # lost after the window (e.g. a short slip between two sticks) disqualifies a row
         mine = [r for r in rows if r["regime"] == regime and r["err_dte"] <= target
@@ -153,7 +155,8 @@ def equal_accuracy(rows: list[dict], target: float = TARGET_ERROR) -> list[dict]
                 b = min(ok, key=lambda r, k=clock_key: r[k]) if ok else None
                 best[method] = None if b is None else {
                     k: b[k] for k in ("setting", "rtol", "step", "wall_per_sim_s",
-                                      "cpu_per_sim_s", "err_dte", "err_force")}
+                                      "cpu_per_sim_s", "err_dte", "err_force",
+                                      "err_dte_horizon", "horizon_s")}
             entry["best" + suffix] = best
             for name, is_kind in (("", lambda m: m in SCIPY_METHODS),
                                   ("_plain", lambda m: m.startswith(PLAIN_PREFIX))):

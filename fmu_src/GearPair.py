@@ -2,16 +2,14 @@
 
 Thin plumbing over the engine contract in ``gearpair.engine``: parameters and effect switches
 become FMU parameters, ``do_step`` validates the inputs and advances the engine to exactly
-``currentCommunicationPoint + communicationStepSize``. The inputs and outputs live in the
-slave's step block (``gearpair.stepblock``), where the fast engine's compiled step reads and
-writes them; once a step was taken, the C layer calls that step itself, without Python
-(`GearPair.native_handoff`; ``GEARPAIR_NATIVE_STEP=0``: every call through Python). Nothing raises
-out of the slave (pythonfmu would turn any exception into fmi2Fatal). A refusal (invalid
-parameters or combination at initialization, a wrong communication point, a state that
-cannot be restored) is logged with status error and changes nothing; the FMU's C layer
-(``fmu_src/c/gearpair_shim.c``) turns a call during which the slave logged an error into
-fmi2Error. A step the integrator cannot complete is logged with status discard and returns
-False (fmi2Discard) with the state of the step start.
+``currentCommunicationPoint + communicationStepSize``. The FMU's C layer (``fmu_src/c``) runs
+the default fast engine itself, compiled into the FMU's binary; it runs this slave, through
+pythonfmu, only for the scipy reference engine (``engine = 1``). Nothing raises out of the
+slave (pythonfmu would turn any exception into fmi2Fatal). A refusal (invalid parameters or
+combination at initialization, a wrong communication point, a state that cannot be
+restored) is logged with status error and changes nothing; the C layer turns a call during
+which the slave logged an error into fmi2Error. A step the integrator cannot complete is
+logged with status discard and returns False (fmi2Discard) with the state of the step start.
 
 The ``gearpair`` package is imported from the FMU's resources folder, where the builder
 (``build_fmu.py``) puts a copy of it, under the private name ``_gearpair_fmu`` (`BUNDLE`),
@@ -33,7 +31,6 @@ import pickle
 import sys
 from typing import Any
 
-import numpy as np
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
@@ -106,31 +103,6 @@ APPENDED_OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, fl
     ("mesh_force_min", "Real", "N", "kN", None, None,
      "least elastic mesh force in the last communication step"),
 )
-# The C layer's hand-off (`GearPair.get_integer`): value references no modelDescription has.
-# NATIVE_VR + 0..5: the addresses of the step block, of the compiled step and of its hand-off
-# table (low and high 32 bits each, 0: none); NATIVE_SLOT_VR + vr: the block slot of
-# variable vr (-1: not in the block).
-NATIVE_VR = 0x47500000
-NATIVE_SLOT_VR = 0x47510000
-
-
-def native_wanted() -> bool:
-    """Whether the C layer may step the compiled engine without Python: unless the
-    environment variable GEARPAIR_NATIVE_STEP is 0, off or no (the Python path)."""
-    return os.environ.get("GEARPAIR_NATIVE_STEP", "1").strip().lower() not in ("0", "off",
-                                                                                "no")
-
-
-def _block_property(slot: int, integer: bool) -> property:
-    """An FMU variable held in the slave's step block (inputs and outputs: the C layer and
-    the compiled step read and write them there)."""
-    if integer:
-        return property(lambda self: int(self._x[slot]),
-                        lambda self, v: self._x.__setitem__(slot, v))
-    return property(lambda self: self._x.item(slot),
-                    lambda self, v: self._x.__setitem__(slot, v))
-
-
 def _resources_folder(resources: str | None) -> str | None:
     """The resources folder as a normal absolute path.
 
@@ -375,8 +347,9 @@ class GearPair(Fmi2Slave):
         self._warn_foreign_package()
         self._spec = interface(self._gp)
         self._sb = importlib.import_module(self._gp.__name__ + ".stepblock")
-        self._x = np.zeros(self._sb.N_X)  # the step block: inputs, step record (`stepblock`)
-        self._slots = self._block_slots()
+        kinds = {row[0]: row[1] for row in OUTPUTS + APPENDED_OUTPUTS}
+        # the outputs in the step record's order (`stepblock.STEP_RECORD`): name, integer
+        self._record = [(n, kinds.get(n) == "Integer") for n in self._sb.STEP_RECORD]
         self._param_names = tuple(v["name"] for v in self._spec if v["causality"] == "parameter")
         self._get_params = operator.attrgetter(*self._param_names)
         for v in self._spec:
@@ -388,13 +361,6 @@ class GearPair(Fmi2Slave):
             else:
                 setattr(self, v["name"], float(start) if start is not None else 0.0)
             self._register(v)
-        # value reference -> step block slot, of the variables held there (`_block_slots`)
-        self._real_slots = {vr: self._slots[v.name] for vr, v in self.vars.items()
-                            if type(v) is Real and v.name in self._slots}
-        self._integer_slots = {vr: self._slots[v.name] for vr, v in self.vars.items()
-                               if type(v) is Integer and v.name in self._slots}
-        self._input_slots = {vr: k for vr, k in self._real_slots.items()
-                             if self.vars[vr].causality == Fmi2Causality.input}
         self._engine = None
         self._engine_key: tuple | None = None  # parameter values the engine was built with
         self._params_set = True  # a parameter was set since the last comparison with the key
@@ -441,12 +407,9 @@ class GearPair(Fmi2Slave):
         return self._get_params(self)
 
     def _build_engine(self):
-        """Validate the parameters and build the engine, the fast one stepping with this
-        slave's step block. Raises ValueError with a message naming the offending
-        parameter."""
-        engine = self._new_engine()
-        engine.bind_block(self._x)
-        return engine
+        """Validate the parameters and build the engine. Raises ValueError with a message
+        naming the offending parameter."""
+        return self._new_engine()
 
     def _new_engine(self):
         gp = self._gp
@@ -546,21 +509,6 @@ class GearPair(Fmi2Slave):
             summary = self._gp.engine.StepSummary.at_instant(o)
         return values + tuple(summary)[2:]  # the figures after t_start and t_end
 
-    def _block_slots(self) -> dict[str, int]:
-        """FMU variable -> slot of the step block, for the inputs and the outputs (the step
-        record's names are the outputs' names); makes each of them a property of the class
-        that reads and writes the block."""
-        sb = self._sb
-        slots = {"torque": sb.X_TORQUE, "speed": sb.X_SPEED, "load_speed": sb.X_LOAD}
-        outputs = {row[0]: row[1] for row in OUTPUTS + APPENDED_OUTPUTS}
-        slots.update((n, sb.X_REC + k) for k, n in enumerate(sb.STEP_RECORD) if n in outputs)
-        missing = set(outputs) - set(slots)
-        if missing:
-            raise RuntimeError(f"outputs {sorted(missing)} are not in the step record")
-        for name, k in slots.items():
-            setattr(type(self), name, _block_property(k, outputs.get(name) == "Integer"))
-        return slots
-
     def _error(self, msg: str) -> bool:
         self.log(msg, Fmi2Status.error)
         return False
@@ -603,18 +551,17 @@ class GearPair(Fmi2Slave):
 
     def _put_record(self, record) -> None:
         """Show a step record (`stepblock.STEP_RECORD`'s order) in the output variables."""
-        x, k = self._x, self._sb.X_REC
-        x[k:k + len(record)] = record
+        for (name, integer), v in zip(self._record, record, strict=True):
+            if integer:
+                setattr(self, name, int(v))
+            elif hasattr(self, name):
+                setattr(self, name, float(v))
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        """The FMU's doStep, whoever calls it: the C layer when it does not step the compiled
-        engine itself (`native_handoff`: the first step, another engine, the Python path
-        chosen, a step the compiled one refused or failed, which it rolled back).
-
-        Checks (a refusal is logged with status error and changes nothing), then one step of
-        the engine (`_advance`) from the state of the step start; a failure is logged with
-        status discard (fmi2Discard) and leaves the state of the step start and the outputs
-        of the last good step.
+        """The FMU's doStep. Checks (a refusal is logged with status error and changes
+        nothing), then one step of the engine (`_advance`) from the state of the step start;
+        a failure is logged with status discard (fmi2Discard) and leaves the state of the
+        step start and the outputs of the last good step.
         """
         try:
             t, h = float(current_time), float(step_size)
@@ -661,26 +608,11 @@ class GearPair(Fmi2Slave):
             return self._error(f"internal error in do_step: {type(e).__name__}: {e}")
 
     def _advance(self, eng, t: float, h: float) -> None:
-        """One step of the engine from t to t + h with the inputs of the step block; the
-        step record into the block. Raises (ValueError, ArithmeticError, RuntimeError with
+        """One step of the engine from t to t + h with the inputs; the step record into the
+        outputs. Raises (ValueError, ArithmeticError, RuntimeError with
         the message of the step's failure) when the step failed or a value is not finite,
         after which the caller restores the state of the step start."""
-        x, sb = self._x, self._sb
-        x[sb.X_LOADON] = 1.0 if self.load_speed_input else 0.0
-        native = eng.native_step
-        if native is not None:  # the compiled step, as the C layer calls it
-            x[sb.X_TCHK], x[sb.X_H], x[sb.X_TEND], x[sb.X_FMU] = t, h, t + h, 1.0
-            step, _, table = native()
-            code = step(table)
-            if code == sb.STEP_REFUSED:  # the checks above passed: the step ends too early
-                raise ValueError(f"t_end = {t + h!r} must be after the current time "
-                                 f"{eng.time!r}")
-            if code == sb.STEP_FAILED:
-                eng._raise_failure()
-            if code == sb.STEP_NONFINITE:
-                raise ArithmeticError(f"output {sb.STEP_RECORD[int(x[sb.X_BAD])]} is not "
-                                      "finite")
-            return
+        sb = self._sb
         load_speed = self._load_speed()
         torque, speed = float(self.torque), float(self.speed)
         summary = eng.advance(t + h, torque, speed) if load_speed is None else \
@@ -690,69 +622,6 @@ class GearPair(Fmi2Slave):
             if not math.isfinite(v):
                 raise ArithmeticError(f"output {name} is not finite")
         self._put_record(record)
-
-    def native_handoff(self) -> tuple[int, int, int]:
-        """(step block, compiled step, hand-off table) addresses for the C layer, 0 for
-        none: the block while the Python path is not chosen (`native_wanted`); the step
-        while the fast engine runs and the next doStep needs nothing of Python (a step was
-        taken since initialization or the last restored state, none failed for good)."""
-        if not native_wanted():
-            return 0, 0, 0
-        block = int(self._x.ctypes.data)
-        eng = self._engine
-        native = eng.native_step
-        if native is None or not self._stepped or self._poisoned or self._params_set or \
-                eng.block is not self._x:
-            return block, 0, 0
-        _, step, table = native()
-        return block, step, table
-
-    # pythonfmu's getters and setters call one Python function per variable; these serve the
-    # inputs and outputs straight from the step block and leave everything else (parameters
-    # with their setters, wrong types) to pythonfmu. (Plain loops: cheaper than
-    # comprehensions for a handful of values.)
-    def get_real(self, vrs):
-        x, slots, out = self._x, self._real_slots, []
-        for vr in vrs:
-            k = slots.get(vr)
-            if k is None:
-                return super().get_real(vrs)
-            out.append(x.item(k))
-        return out
-
-    def get_integer(self, vrs):
-        if vrs and vrs[0] >= NATIVE_VR:
-            return self._native_answer(vrs)
-        x, slots, out = self._x, self._integer_slots, []
-        for vr in vrs:
-            k = slots.get(vr)
-            if k is None:
-                return super().get_integer(vrs)
-            out.append(int(x[k]))
-        return out
-
-    def _native_answer(self, vrs) -> list[int]:
-        """`get_integer` of the C layer's hand-off value references (`NATIVE_VR`): the
-        addresses of `native_handoff` as signed 32-bit halves, or block slots."""
-        words = []
-        for a in self.native_handoff():
-            words += [a & 0xFFFFFFFF, a >> 32]
-        slots = {**self._real_slots, **self._integer_slots}
-        out = []
-        for vr in vrs:
-            w = words[vr - NATIVE_VR] if vr - NATIVE_VR < len(words) else \
-                slots.get(vr - NATIVE_SLOT_VR, -1)
-            out.append(w - (1 << 32) if w >= 1 << 31 else w)
-        return out
-
-    def set_real(self, vrs, values):
-        x, slots = self._x, self._input_slots
-        for vr, v in zip(vrs, values):  # noqa: B905 - as pythonfmu (a keyword costs here)
-            k = slots.get(vr)
-            if k is None:  # pythonfmu sets them all again (the inputs to the same values)
-                return super().set_real(vrs, values)
-            x[k] = v
-        return None
 
     def _restore_engine(self, saved) -> bool:
         try:

@@ -1,7 +1,9 @@
 """Which Python the GearPair FMU runs on, and whether it has what the FMU needs.
 
-This file ships in the FMU's resources beside ``python.txt`` and serves the FMU's C layer
-(``fmu_src/c/gearpair_shim.c``) in three ways, with the standard library only:
+Only the scipy reference engine (``engine = 1``) runs in Python; the default engine is
+compiled into the FMU's binary. This file ships in the FMU's resources beside ``python.txt``
+and serves the FMU's C layer (``fmu_src/c/python_slave.c``) when an instance chooses the
+reference engine, in three ways, with the standard library only:
 
 - ``build_fmu.py`` writes `describe()` of the building interpreter to ``python.txt``: its
   shared libpython, its installation (home: the standard library), its executable (a venv's
@@ -20,8 +22,7 @@ import os
 import sys
 import sysconfig
 
-NEEDED = ("numpy", "scipy", "pythonfmu")  # the FMU cannot run without these
-FAST = "numba"  # the compiled engine; without it the reference engine runs
+NEEDED = ("numpy", "scipy", "pythonfmu")  # the reference engine cannot run without these
 
 
 def libpython() -> str:
@@ -81,20 +82,10 @@ def prepare(sites: list[str], started_here: bool, origin: str) -> tuple[str, str
         python = sys.executable or "python"
         return (f"the FMU cannot import {', '.join(missing)} in {where}; it looked in "
                 f"{os.pathsep.join(folders)}. Fix: install what is missing into that "
-                f"environment ({python} -m pip install numpy scipy numba pythonfmu), or set "
+                f"environment ({python} -m pip install numpy scipy pythonfmu), or set "
                 "GEARPAIR_PYTHON to the python executable of an environment that has them "
                 "(docs/hosts.md)"), ""
-    if importlib.util.find_spec(FAST) is None:
-        engine = ("numba is not installed: the reference engine (scipy) will run, much "
-                  "slower; install numba into that environment for the compiled engine")
-    else:
-        from importlib.metadata import version
-
-        try:
-            engine = f"numba {version(FAST)}: the compiled engine (engine = 0, fast) is available"
-        except Exception:  # noqa: BLE001 - numba importable without metadata
-            engine = "numba found: the compiled engine (engine = 0, fast) is available"
-    return "", f"runs on {where}; {engine}"
+    return "", f"runs the reference engine (engine = 1) on {where}"
 
 
 if __name__ == "__main__":

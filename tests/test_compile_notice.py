@@ -59,18 +59,20 @@ def _build_module():
 
 def test_build_fmu_announces_the_engine_compile_before_it_starts(monkeypatch, tmp_path,
                                                                 capsys):
-    import gearpair.shipped
+    import gearpair
+    import gearpair.aot
 
     seen = []
 
-    def ship(package, import_name):  # stands in for the compile: what was said before it?
+    def write_engine(folder, path=None):  # stands in for the compile: what was said before?
         seen.append(capsys.readouterr().err)
-        return {"files": 42, "compiled": {"source": "compiled", "seconds": 100.0}}
+        raise RuntimeError("stop here")
 
-    monkeypatch.setattr(gearpair.shipped, "ship", ship)
-    _build_module()._add_compiled_engine(tmp_path, "gearpair")
-    before = seen[0]
-    assert before.startswith("build_fmu: compiling the fast engine that the FMU ships")
-    assert "about 30 s the first time" in before
-    after = capsys.readouterr().err
-    assert after.startswith("build_fmu: fast engine compiled in ") and "42 files" in after
+    monkeypatch.setattr(gearpair.aot, "write_engine", write_engine)
+    build = _build_module()
+    with pytest.raises(RuntimeError, match="stop here"):
+        build.compile_c_layer(b"<fmiModelDescription guid=\"x\"><ModelVariables/>"
+                              b"</fmiModelDescription>", [], gearpair, tmp_path,
+                              progress=build._stderr)
+    assert seen[0].startswith("build_fmu: compiling the fast engine into the FMU's binary")
+    assert "about 40 s the first time" in seen[0]

@@ -240,8 +240,9 @@ def test_simulate_fmu_gives_finite_outputs(fmu_path):
 
 
 def test_fmu_imports_its_bundled_package_and_exits_cleanly(fmu_path, tmp_path):
-    """Two copies of the FMU in one Python host, the first one's folder deleted: the second
-    imports its own bundled package under the private name, the host's ``sys.path`` and
+    """Two copies of the FMU in one Python host, both running the reference engine (the one in
+    Python), the first one's folder deleted: the second imports its own bundled package
+    under the private name, the host's ``sys.path`` and
     ``gearpair`` stay its own (importing gearpair afterwards works and finds the host's
     package, not a deleted copy), and the interpreter's normal teardown ends with status 0
     (the FMU's C layer empties pythonfmu's static interpreter guard, which pythonfmu's exit
@@ -251,12 +252,16 @@ def test_fmu_imports_its_bundled_package_and_exits_cleanly(fmu_path, tmp_path):
         from fmpy import extract, read_model_description, simulate_fmu
         from fmpy.fmi2 import FMU2Slave
         path0 = list(sys.path)
-        simulate_fmu({str(fmu_path)!r}, stop_time=1e-3, output_interval=1e-3)
+        simulate_fmu({str(fmu_path)!r}, stop_time=1e-3, output_interval=1e-3,
+                     start_values={{"engine": 1}})
         md = read_model_description({str(fmu_path)!r})
         d = extract({str(fmu_path)!r})
         s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier="GearPair",
                       instanceName="x")
         s.instantiate()
+        vr = {{v.name: v.valueReference for v in md.modelVariables}}
+        s.setupExperiment(startTime=0.0); s.enterInitializationMode()
+        s.setInteger([vr["engine"]], [1]); s.exitInitializationMode()
         print(sys.modules["_gearpair_fmu"].__file__.startswith(str(d)),
               "gearpair" in sys.modules, sys.path == path0, flush=True)
         s.freeInstance()
@@ -270,10 +275,11 @@ def test_fmu_imports_its_bundled_package_and_exits_cleanly(fmu_path, tmp_path):
 
 
 def test_an_instance_freed_with_a_message_pending_exits_cleanly(fmu_path, tmp_path):
-    """Found by the host tests: an instance whose constructor logged (here the warning of a
+    """Found by the host tests: a Python slave whose constructor logged (here the warning of a
     second copy of the FMU running the first one's package) and that is freed without any
     other call crashed pythonfmu's destructor (SIGSEGV). The C layer delivers such messages
-    at fmi2Instantiate, so the warning arrives at once and the process exits with 0."""
+    when it creates the slave (the reference engine's initialization), so the warning
+    arrives at once and the process exits with 0."""
     code = textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {str(ROOT / "tests")!r})
@@ -283,6 +289,9 @@ def test_an_instance_freed_with_a_message_pending_exits_cleanly(fmu_path, tmp_pa
         md = fmpy.read_model_description(fmu)
         first = LoggingSlave(md, fmpy.extract(fmu, unzipdir={str(tmp_path / "a")!r}), "first")
         second = LoggingSlave(md, fmpy.extract(fmu, unzipdir={str(tmp_path / "b")!r}), "second")
+        for g in (first, second):  # the reference engine: its slave starts at initialization
+            g.fmu.setupExperiment(startTime=0.0); g.fmu.enterInitializationMode()
+            g.fmu.setInteger([g.vr["engine"]], [1]); g.fmu.exitInitializationMode()
         warned = [sum(st >= 1 for st, _ in g.messages) for g in (first, second)]  # warning+
         print(*warned, flush=True)
         second.fmu.freeInstance()
@@ -296,13 +305,15 @@ def test_an_instance_freed_with_a_message_pending_exits_cleanly(fmu_path, tmp_pa
 
 def test_a_copy_from_another_live_folder_says_which_package_it_runs(fmu_path, md, unzipdir,
                                                                    tmp_path):
-    """Instances in one process share the bundled package while its folder exists; a copy
+    """Instances of the reference engine in one process share the bundled package while its
+    folder exists; a copy
     of the FMU extracted elsewhere then runs it, and its log names the folder it came from
     (a silent swap could hide a version mismatch between two FMU files)."""
     first = Instance(md, unzipdir)
     other = Instance(md, str(extract(str(fmu_path), unzipdir=str(tmp_path / "other"))))
     try:
-        other.fmu.setupExperiment(startTime=0.0)  # pythonfmu passes on what __init__ logged
+        for g in (first, other):  # the reference engine: the slave runs in Python
+            g.initialize(**FAST, engine=1)
         loaded = os.path.dirname(sys.modules["_gearpair_fmu"].__file__)
         assert not loaded.startswith(str(tmp_path))
         said = [m for st, m in other.messages if st == fmi2Warning]
@@ -493,34 +504,52 @@ def test_serialized_state_restores_in_a_fresh_instance(md, unzipdir):
 
 def test_corrupt_serialized_state_is_rejected_without_crash(md, unzipdir):
     """A state blob that does not come from this FMU is refused with fmi2Error and changes
-    nothing: without the C layer's trailer at the format check, and with a valid trailer
-    (a crafted blob) by the slave's restricted unpickler, which never runs its code."""
+    nothing: without the C layer's trailer at the format check; with a valid trailer around
+    bytes of another shape by the model part; and, for the reference engine, a crafted
+    pickle inside a valid state by the slave's restricted unpickler, which never runs its
+    code."""
     import pickle
+    import struct
     import zlib
 
     class Sneaky:
         def __reduce__(self):
             return (print, ("this must not run",))
 
-    g = Instance(md, unzipdir)
-    g.initialize(**FAST)
-    t, rows = g.steps(0.0, 1e-4, 1)
-    payload = pickle.dumps({"format": "gearpair-fmu-state/1", "values": {"x": Sneaky()}})
-    with pytest.raises(FMICallException) as exc:
-        g.fmu.deSerializeFMUstate(payload)
-    assert exc.value.status == fmi2Error and "checksum" in g.messages[-1][1]
-    head = payload + b"GPFMUST1" + (2).to_bytes(4, "little") + len(payload).to_bytes(4, "little")
-    crafted = head + zlib.crc32(head).to_bytes(4, "little")
-    s = g.fmu.deSerializeFMUstate(crafted)
-    with pytest.raises(FMICallException) as exc:
-        g.fmu.setFMUstate(s)
-    assert exc.value.status == fmi2Error and g.messages[-1][0] == fmi2Error
-    assert "not allowed" in g.messages[-1][1]
-    g.fmu.freeFMUstate(s)
-    assert g.outputs() == rows[-1]
-    _, more = g.steps(t, 1e-4, 1)
-    assert rows + more == _reference_rows(md, unzipdir, 2)
-    g.close()
+    def sealed(payload: bytes) -> bytes:
+        head = payload + b"GPFMUST2" + (2).to_bytes(4, "little") + \
+            len(payload).to_bytes(4, "little")
+        return head + zlib.crc32(head).to_bytes(4, "little")
+
+    for engine in (0, 1):
+        g = Instance(md, unzipdir)
+        g.initialize(**FAST, engine=engine)
+        t, rows = g.steps(0.0, 1e-4, 1)
+        good = g.fmu.serializeFMUstate(g.fmu.getFMUstate())
+        payload = pickle.dumps({"format": "gearpair-fmu-state/1", "values": {"x": Sneaky()}})
+        with pytest.raises(FMICallException) as exc:
+            g.fmu.deSerializeFMUstate(payload)
+        assert exc.value.status == fmi2Error and "checksum" in g.messages[-1][1]
+        model = 8 * (3 + len(md.modelVariables))  # the model's bytes after mode, times, values
+        tag = 1.0 if engine == 0 else 2.0
+        assert struct.unpack_from("<d", bytes(good), model)[0] == tag
+        crafted = [bytes(good[:model]) + b"\0" * 24]  # a model state of another shape
+        if engine == 1:  # the slave's pickle replaced by one that would run code
+            crafted.append(bytes(good[:model + 16]) + payload)
+        for blob in crafted:
+            s = g.fmu.deSerializeFMUstate(sealed(blob))
+            with pytest.raises(FMICallException) as exc:
+                g.fmu.setFMUstate(s)
+            assert exc.value.status == fmi2Error and g.messages[-1][0] == fmi2Error
+            g.fmu.freeFMUstate(s)
+        if engine == 1:
+            assert "not allowed" in g.messages[-1][1], g.messages[-1]
+        else:
+            assert "another interface" in g.messages[-1][1], g.messages[-1]
+        assert g.outputs() == rows[-1]
+        _, more = g.steps(t, 1e-4, 1)
+        assert rows + more == _reference_rows(md, unzipdir, 2, engine=engine)
+        g.close()
 
 
 def test_back_flank_contact_at_t0_is_not_counted_as_separation(md, unzipdir):

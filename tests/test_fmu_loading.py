@@ -1,6 +1,7 @@
-"""How the FMU finds its resources and its Python: resource-location forms, the interpreter
-recorded at build time, the GEARPAIR_PYTHON override, missing packages, and calls that
-arrive after the host's interpreter has finalized.
+"""How the FMU finds its resources and, for the reference engine (engine = 1, the only one that
+runs in Python), its Python: resource-location forms, the default engine without any Python,
+the interpreter recorded at build time, the GEARPAIR_PYTHON override, missing packages, and
+calls that arrive after the host's interpreter has finalized.
 
 The non-Python hosts here run with an empty environment (`env -i`), as a master started
 from a launcher would: the FMU must find everything from what it carries.
@@ -87,17 +88,19 @@ def clean_env(**extra: str) -> dict[str, str]:
 # -- a C master with an empty environment --------------------------------------------------
 @pytest.fixture(scope="module")
 def c_run(fmu_path, tmp_path_factory):
-    """run(env, unzip=None) -> CompletedProcess: the C host example, 3 steps, loggingOn,
-    on an extraction of the FMU (a fresh one per module unless given)."""
+    """run(env, unzip=None, reference=True) -> CompletedProcess: the C host example, 3 steps,
+    loggingOn, on an extraction of the FMU (a fresh one per module unless given), with the
+    reference engine (engine = 1: Python) unless ``reference`` is false."""
     base = tmp_path_factory.mktemp("c_loading")
     exe = compile_c_host(ROOT / "examples" / "hosts" / "fmi2_host.c", base / "fmi2_host")
     unzip = Path(fmpy.extract(str(fmu_path), unzipdir=str(base / "unzip")))
     md = fmpy.read_model_description(str(fmu_path))
     vr = {v.name: v.valueReference for v in md.modelVariables}
 
-    def run(env, where: Path | None = None):
+    def run(env, where: Path | None = None, reference: bool = True):
+        engine = ["-i", f"{vr['engine']}=1"] if reference else []
         return subprocess.run([str(exe), str(where or unzip), "GearPair", md.guid, "1e-4", "3",
-                               "-o", str(vr["mesh_force"]), "-l", "1"],
+                               "-o", str(vr["mesh_force"]), "-l", "1", *engine],
                               env=env, capture_output=True, text=True, timeout=300)
     run.unzip = unzip
     return run
@@ -141,17 +144,27 @@ def _shared_python_or_skip():
                     "with it cannot run in a C host")
 
 
-def test_c_master_needs_no_environment(c_run):
-    """`env -i PATH=/usr/bin:/bin HOME=$HOME fmi2_host ...`: the FMU loads the Python that
-    built it, finds its packages and runs the compiled engine; exit status 0."""
+def test_c_master_runs_the_fast_engine_without_python(c_run):
+    """`env -i PATH=/usr/bin:/bin HOME=$HOME fmi2_host ...` with the default engine: the
+    compiled engine in the FMU's binary runs, no Python is looked for; exit status 0, no
+    warning or error."""
+    proc = c_run(clean_env(), reference=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert len(proc.stdout.split()) == 4
+    assert "Python" not in proc.stderr, proc.stderr
+    assert "[host|1|" not in proc.stderr and "[host|3|" not in proc.stderr, proc.stderr
+
+
+def test_c_master_runs_the_reference_engine_in_the_python_that_built_it(c_run):
+    """The same with engine = 1: the FMU loads the Python that built it, finds its packages
+    and runs the scipy reference engine; exit status 0."""
     _shared_python_or_skip()
     proc = c_run(clean_env())
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert len(proc.stdout.split()) == 4
     log = proc.stderr
     assert "the Python that built this FMU" in log and sys.executable in log, log
-    assert "the compiled engine (engine = 0, fast) is available" in log, log
-    assert "fast engine: loaded the compiled code" in log, log  # numba's code, not scipy
+    assert "runs the reference engine (engine = 1)" in log, log
     assert "[host|1|" not in log and "[host|3|" not in log, log  # no warning, no error
 
 
@@ -162,13 +175,12 @@ def test_gearpair_python_names_another_environment(c_run, tmp_path):
     proc = c_run(clean_env(GEARPAIR_PYTHON=str(other)))
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert f"GEARPAIR_PYTHON={other}" in proc.stderr and f"at {other} " in proc.stderr
-    assert "the compiled engine (engine = 0, fast) is available" in proc.stderr
 
 
 def test_an_environment_without_numpy_gives_one_clear_error(c_run, tmp_path):
-    """A copy of the environment without numpy: fmi2Instantiate fails with one message of
-    status error that names numpy, where it looked and the fix; the host exits 1 (its own
-    status for a failed call), no crash, no traceback."""
+    """A copy of the environment without numpy: fmi2ExitInitializationMode of the reference
+    engine fails with one message of status error that names numpy, where it looked and the
+    fix; the host exits 1 (its own status for a failed call), no crash, no traceback."""
     _shared_python_or_skip()
     pkgs = _packages_without("numpy", tmp_path / "pkgs")
     python = _venv(tmp_path / "venv", pkgs)
@@ -180,7 +192,7 @@ def test_an_environment_without_numpy_gives_one_clear_error(c_run, tmp_path):
     for words in ("cannot import numpy", str(python), str(pkgs), "-m pip install",
                   "GEARPAIR_PYTHON"):
         assert words in msg, (words, msg)
-    assert "Traceback" not in proc.stderr and "fmi2Instantiate failed" in proc.stderr
+    assert "Traceback" not in proc.stderr and "exit_init(c) returned status 3" in proc.stderr
 
 
 @pytest.mark.parametrize("bad", ["missing", "not python"])
@@ -255,7 +267,10 @@ if native:
     cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
 s.instantiate(callbacks=cb)
-s.setupExperiment(startTime=0.0); s.enterInitializationMode(); s.exitInitializationMode()
+vr = {v.name: v.valueReference for v in md.modelVariables}
+s.setupExperiment(startTime=0.0); s.enterInitializationMode()
+s.setInteger([vr["engine"]], [1])  # the reference engine: the one that runs in Python
+s.exitInitializationMode()
 s.doStep(0.0, 1e-4)
 addr = lambda f: ctypes.cast(f, ctypes.c_void_p)
 helper.arm.argtypes = [ctypes.c_void_p] * 4 + [ctypes.c_double]
@@ -268,7 +283,8 @@ print("alive", flush=True)  # the script ends with the instance alive
 @pytest.mark.parametrize("logger", ["native", "ctypes"])
 def test_calls_after_the_python_host_finalized_are_answered_by_the_c_layer(fmu_path, tmp_path,
                                                                            logger):
-    """OMSimulator's Python API path: a Python host ends with an instance alive, and its
+    """OMSimulator's Python API path: a Python host ends with an instance of the reference
+    engine (Python) alive, and its
     exit handler (after the interpreter finalized) calls fmi2DoStep, fmi2Terminate and
     fmi2FreeInstance. The C layer answers without entering Python: fmi2Error for the step
     (one message, with a category, through a C logger; fmpy's logger, which calls into
@@ -306,8 +322,12 @@ cb = fmi2CallbackFunctions()
 cb.logger = fmi2CallbackLoggerTYPE(
     lambda env, inst, status, cat, msg: said.append((status, cat, msg.decode())))
 s = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu), modelIdentifier="GearPair")
+s.instantiate(callbacks=cb, loggingOn=False)
+s.setupExperiment(startTime=0.0); s.enterInitializationMode()
+s.setInteger([md.modelVariables[[v.name for v in md.modelVariables].index("engine")]
+              .valueReference], [1])
 try:
-    s.instantiate(callbacks=cb, loggingOn=False)
+    s.exitInitializationMode()
 except Exception:
     print("refused")
 for status, cat, msg in said:
@@ -316,9 +336,10 @@ for status, cat, msg in said:
 
 
 def test_a_python_host_without_scipy_gets_one_clear_error(fmu_path, tmp_path):
-    """A Python host keeps its own interpreter; when it lacks a package the FMU needs (here
-    scipy), fmi2Instantiate fails after one error message (with a category, also with
-    loggingOn false) naming it, the interpreter and the fix; no traceback."""
+    """A Python host keeps its own interpreter; when it lacks a package the reference engine
+    needs (here scipy), its fmi2ExitInitializationMode fails after one error message (with a
+    category, also with loggingOn false) naming it, the interpreter and the fix; no
+    traceback."""
     python = _venv(tmp_path / "venv", _packages_without("scipy", tmp_path / "pkgs"))
     r = subprocess.run([str(python), "-c", _PY_HOST_NO_SCIPY.format(fmu=str(fmu_path))],
                        cwd=tmp_path, env=clean_env(), capture_output=True, text=True,
@@ -326,7 +347,7 @@ def test_a_python_host_without_scipy_gets_one_clear_error(fmu_path, tmp_path):
     assert r.returncode == 0, r.stderr[-3000:]
     lines = r.stdout.splitlines()
     assert lines[0] == "refused" and len(lines) == 2, r.stdout
-    assert lines[1].startswith("3 logStatusError fmi2Instantiate: the FMU cannot import "
-                               "scipy"), lines[1]
+    assert lines[1].startswith("3 logStatusError engine = 1 (reference) needs Python: the "
+                               "FMU cannot import scipy"), lines[1]
     assert "the host's own Python" in lines[1] and "-m pip install" in lines[1]
     assert "Traceback" not in r.stderr, r.stderr[-3000:]

@@ -35,7 +35,7 @@ def build(out, package):
     with zipfile.ZipFile(fmu, "w") as z:
         for p in sorted(Path(package).rglob("*.py")):
             z.writestr("resources/gearpair/" + p.relative_to(package).as_posix(), p.read_bytes())
-    shim = HERE / "fmu_src" / "c" / "gearpair_shim.c"
+    shim = HERE / "fmu_src" / "c" / "fmi2Functions.c"
     (HERE / "builds.txt").open("a").write("built\\n")
     fmu.with_name(fmu.name + ".build.json").write_text(json.dumps(
         {"fmu_sha256": digest(fmu), "builder": str(HERE / "build_fmu.py"),
@@ -51,7 +51,7 @@ def repo(tmp_path, monkeypatch):
     one, with no ``$GEARPAIR_FMU``."""
     (tmp_path / "build_fmu.py").write_text(FAKE_BUILDER)
     (tmp_path / "fmu_src" / "c").mkdir(parents=True)
-    (tmp_path / "fmu_src" / "c" / "gearpair_shim.c").write_text("int x;\n")
+    (tmp_path / "fmu_src" / "c" / "fmi2Functions.c").write_text("int x;\n")
     pkg = tmp_path / "site" / "gearpair"
     (pkg / "fast").mkdir(parents=True)
     (pkg / "params.py").write_text("A = 1\n")
@@ -102,7 +102,7 @@ def test_a_stale_fmu_found_by_default_is_rebuilt(repo, capsys):
     location.find_fmu()
     assert _builds(repo) == 1  # nothing changed
     edits = [location.PACKAGE / "fast" / "loop.py", location.PACKAGE / "params.py",
-             repo / "fmu_src" / "c" / "gearpair_shim.c"]
+             repo / "fmu_src" / "c" / "fmi2Functions.c"]
     for n, path in enumerate(edits, start=2):
         path.write_text(path.read_text() + "# edited\n")
         location.find_fmu()
@@ -162,8 +162,8 @@ def test_a_record_of_another_fmu_is_not_used(repo):
     judged (the bundled package still is)."""
     (repo / "dist").mkdir()
     fmu = _build(repo)
-    (repo / "fmu_src" / "c" / "gearpair_shim.c").write_text("int y;\n")
-    assert "gearpair_shim.c changed" in location.stale_reason(fmu, location.PACKAGE)
+    (repo / "fmu_src" / "c" / "fmi2Functions.c").write_text("int y;\n")
+    assert "fmi2Functions.c changed" in location.stale_reason(fmu, location.PACKAGE)
     with zipfile.ZipFile(fmu, "a") as z:
         z.writestr("documentation/extra.txt", "")
     assert location.read_record(fmu) is None
@@ -198,7 +198,7 @@ def test_a_fresh_build_is_not_stale_and_records_its_sources(fmu_path):
     assert record == location.read_record(fmu_path)
     assert Path(record["builder"]) == ROOT / "build_fmu.py"
     names = {Path(p).relative_to(ROOT).as_posix() for p in record["sources"]}
-    assert {"build_fmu.py", "fmu_src/GearPair.py", "fmu_src/c/gearpair_shim.c"} <= names
+    assert {"build_fmu.py", "fmu_src/GearPair.py", "fmu_src/c/fmi2Functions.c"} <= names
     assert location.stale_reason(fmu_path) is None
 
 

@@ -1,15 +1,10 @@
-"""The FMU's native step (the C layer runs the compiled step without Python) against its
-Python path (``GEARPAIR_NATIVE_STEP=0``: every call through pythonfmu into the slave): the
-same call sequence through the built FMU gives bit-identical values of every variable after
-every call, refusals, failed steps and state restores included; and the slave's own getters
-and setters."""
+"""The FMU's step in C (the engine compiled into its binary) against the Python API's fast
+engine: the same call sequence, refusals, failed steps and state restores included, gives
+bit-identical outputs after every step; and instances in threads."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -23,117 +18,114 @@ pytestmark = pytest.mark.fmu
 RPM = 2.0 * math.pi / 60.0
 
 
-@pytest.fixture(scope="module")
-def slave_class(fmu_path, tmp_path_factory):
-    unzip = Path(fmpy.extract(str(fmu_path), unzipdir=str(tmp_path_factory.mktemp("path"))))
-    spec = importlib.util.spec_from_file_location("_gearpair_step_path_slave",
-                                                  unzip / "resources" / "GearPair.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod.GearPair, str(unzip / "resources")
+SCHEDULE = [((1e-4, 3e-4, 1e-3)[k % 3], 3900.0 + 40.0 * k, (100 + k) * RPM) for k in range(80)]
 
 
-def _sequence(md, unzip, load_speed_input: bool) -> tuple[list, int]:
-    """Run one instance through a fixed call sequence; (every value after every call, the
-    number of doSteps the slave's Python ``do_step`` took)."""
+def _fmu_sequence(md, unzip, load_speed_input: bool) -> list:
+    """One FMU instance through a fixed call sequence: the outputs (hex) after each step
+    taken, None for a refused call."""
     g = LoggingSlave(md, unzip, name="seq", logging_on=False)
     f, vr = g.fmu, g.vr
-    reals = [v.valueReference for v in md.modelVariables if v.type == "Real"]
-    ints = [v.valueReference for v in md.modelVariables if v.type == "Integer"]
-    cls = sys.modules["GearPair"].GearPair  # the slave class pythonfmu imported
-    calls = {"n": 0}
-    python_step = cls.do_step
+    outs = [vr[n] for n in STEP_OUTPUTS]
+    f.setupExperiment(startTime=0.0)
+    f.setBoolean([vr["load_speed_input"]], [load_speed_input])
+    vin = [vr["torque"], vr["speed"], vr["load_speed"]]
+    f.setReal(vin, [3900.0, 100 * RPM, 100 * RPM / 1.5])
+    f.enterInitializationMode()
+    f.exitInitializationMode()
+    out = [tuple(x.hex() for x in f.getReal(outs))]
+    t = t_saved = t_blob = 0.0
+    saved = blob = None
+    for k, (h, torque, speed) in enumerate(SCHEDULE):
+        u = [math.nan if k == 10 else torque, speed, speed / 1.5]
+        try:  # k = 10: refused by the C layer, the old torque is kept
+            f.setReal(vin, u)
+        except fmpy.fmi1.FMICallException:
+            out.append(None)
+        if k == 15:
+            saved, t_saved = f.getFMUstate(), t
+        if k == 30:
+            blob, t_blob = f.serializeFMUstate(f.getFMUstate()), t
+        try:
+            f.doStep(t if k != 20 else t + 1.0, h)  # k = 20: a wrong time, refused
+            t += h
+            out.append(tuple(x.hex() for x in f.getReal(outs)))
+        except fmpy.fmi1.FMICallException:
+            out.append(None)
+        if k == 45:  # back to the state saved at k = 15
+            f.setFMUstate(saved)
+            t = t_saved
+        if k == 60:  # and to the state serialized at k = 30
+            f.setFMUstate(f.deSerializeFMUstate(blob))
+            t = t_blob
+    f.terminate()
+    f.freeInstance()
+    return out
 
-    def counted(self, t, h):
-        calls["n"] += 1
-        return python_step(self, t, h)
 
-    def values():
-        return (tuple(x.hex() for x in f.getReal(reals)), tuple(f.getInteger(ints)))
+def _api_sequence(load_speed_input: bool) -> list:
+    """The same sequence with the Python API's fast engine (`FastEngine.advance`)."""
+    from gearpair import Effects, GearParams
+    from gearpair.fast import FastEngine
 
-    cls.do_step = counted
-    try:
-        out = []
-        f.setupExperiment(startTime=0.0)
-        f.setBoolean([vr["load_speed_input"]], [load_speed_input])
-        vin = [vr["torque"], vr["speed"], vr["load_speed"]]
-        f.setReal(vin, [3900.0, 100 * RPM, 100 * RPM / 1.5])
-        f.enterInitializationMode()
-        f.exitInitializationMode()
-        out.append(values())
-        t = t_saved = t_blob = 0.0
-        saved = blob = None
-        for k in range(80):
-            h = (1e-4, 3e-4, 1e-3)[k % 3]
-            u = [3900.0 + 40.0 * k, (100 + k) * RPM, (100 + k) * RPM / 1.5]
-            if k == 10:
-                u[0] = math.nan  # refused by the C layer: the old torque is kept
-            try:
-                f.setReal(vin, u)
-                out.append("set")
-            except fmpy.fmi1.FMICallException:
-                out.append(("refused", values()))
-            if k == 15:
-                saved, t_saved = f.getFMUstate(), t
-            if k == 30:
-                blob, t_blob = f.serializeFMUstate(f.getFMUstate()), t
-            try:
-                f.doStep(t if k != 20 else t + 1.0, h)  # k = 20: a wrong time, refused
-                ok = True
-                t += h
-            except fmpy.fmi1.FMICallException:
-                ok = False
-            out.append((ok, values()))
-            if k == 45:  # back to the state saved at k = 15
-                f.setFMUstate(saved)
-                t = t_saved
-                out.append(values())
-            if k == 60:  # and to the state serialized at k = 30
-                f.setFMUstate(f.deSerializeFMUstate(blob))
-                t = t_blob
-                out.append(values())
-        f.terminate()
-        f.freeInstance()
-        return out, calls["n"]
-    finally:
-        cls.do_step = python_step
+    eng = FastEngine(GearParams(), Effects(), rtol=1e-8)
+
+    def record(summary=None):
+        o = eng.outputs()
+        values = {n: getattr(o, n, None) for n in STEP_OUTPUTS}
+        if summary is None:
+            from gearpair.engine import StepSummary
+
+            summary = StepSummary.at_instant(o)
+        values.update((n, getattr(summary, n)) for n in STEP_OUTPUTS if values[n] is None)
+        return tuple(float(values[n]).hex() for n in STEP_OUTPUTS)
+
+    eng.reset(t0=0.0, torque=3900.0, speed=100 * RPM, static=True)
+    out = [record()]
+    t, torque, speed = 0.0, 3900.0, 100 * RPM
+    for k, (h, tq, w) in enumerate(SCHEDULE):
+        if k == 10:  # the whole set refused: the old inputs kept
+            out.append(None)
+        else:
+            torque, speed = tq, w
+        if k == 15:
+            saved, t_saved = eng.snapshot(), t
+        if k == 30:
+            blob, t_blob = eng.get_state(), t
+        if k == 20:
+            out.append(None)
+        else:
+            load = (speed / 1.5,) if load_speed_input else ()
+            out.append(record(eng.advance(t + h, torque, speed, *load)))
+            t += h
+        if k == 45:
+            eng.restore(saved)
+            t = t_saved
+        if k == 60:
+            eng.set_state(blob)
+            t = t_blob
+    return out
+
+
+STEP_OUTPUTS = ("dte", "mesh_force", "friction_force", "output_torque", "input_torque_reaction",
+                "input_torque", "gear1_speed", "gear2_speed", "sliding_velocity",
+                "stick_fraction", "separation_fraction", "mesh_force_max", "back_fraction",
+                "mesh_force_mean", "mesh_force_min")
 
 
 @pytest.mark.parametrize("load_speed_input", [False, True])
-def test_native_step_is_bit_identical_to_python_path(fmu_path, md, tmp_path, monkeypatch,
-                                                     load_speed_input):
+def test_the_fmu_step_is_bit_identical_to_the_python_api(fmu_path, md, tmp_path,
+                                                         load_speed_input):
     unzip = fmpy.extract(str(fmu_path), unzipdir=str(tmp_path / "fmu"))
-    monkeypatch.setenv("GEARPAIR_NATIVE_STEP", "1")
-    native, native_calls = _sequence(md, unzip, load_speed_input)
-    monkeypatch.setenv("GEARPAIR_NATIVE_STEP", "0")
-    python, python_calls = _sequence(md, unzip, load_speed_input)
-    assert native == python
-    steps = [r for r in native if isinstance(r, tuple) and isinstance(r[0], bool)]
-    assert sum(ok for ok, _ in steps) == 79  # all but the one at a wrong time
-    # Python stepped every step on its path; natively only the first, the refused one and
-    # the first after each restored state
-    assert python_calls == 80
-    assert native_calls <= 5, native_calls
-    names = [v.name for v in md.modelVariables if v.type == "Real"]
-    stick = [float.fromhex(r[names.index("stick_fraction")]) for _, (r, _) in steps]
+    fmu = _fmu_sequence(md, unzip, load_speed_input)
+    api = _api_sequence(load_speed_input)
+    assert len(fmu) == len(api)
+    for k, (a, b) in enumerate(zip(fmu, api, strict=True)):
+        assert a == b, (k, a, b)
+    steps = [r for r in fmu if r is not None]
+    assert len(steps) == 1 + 79  # the initial outputs, all steps but the one at a wrong time
+    stick = [float.fromhex(r[STEP_OUTPUTS.index("stick_fraction")]) for r in steps]
     assert max(stick) > 0.1  # the compared steps include stick-slip switches
-
-
-def test_getters_fall_back_to_pythonfmu(slave_class):
-    """A parameter set through set_real keeps its setter (the engine is rebuilt); a value
-    reference of another type is refused as pythonfmu refuses it."""
-    cls, resources = slave_class
-    s = cls(instance_name="p", resources=resources)
-    vr = {v.name: k for k, v in s.vars.items()}
-    s.set_real([vr["rtol"]], [1e-7])
-    assert s.rtol == 1e-7 and s._params_set
-    with pytest.raises(TypeError):
-        s.get_real([vr["contact_state"]])
-    with pytest.raises(TypeError):
-        s.get_integer([vr["dte"]])
-    with pytest.raises(TypeError):
-        s.set_real([vr["contact_state"]], [1.0])
-    assert s.get_real([vr["torque"], vr["rtol"]]) == [s.torque, 1e-7]
 
 
 def test_two_instances_in_two_threads_of_a_c_host(fmu_path, tmp_path):
@@ -163,9 +155,9 @@ def test_two_instances_in_two_threads_of_a_c_host(fmu_path, tmp_path):
     assert got["main"]["last_output"] != 0.0
 
 
-def test_a_state_restored_into_another_instance_steps_natively(fmu_path, md, tmp_path):
+def test_a_state_restored_into_another_instance_goes_on_alike(fmu_path, md, tmp_path):
     """A serialized state set into a second instance: it goes on with the first one's
-    outputs, and after one step through Python the C layer steps it natively."""
+    outputs, step for step."""
     unzip = fmpy.extract(str(fmu_path), unzipdir=str(tmp_path / "fmu"))
     a, b = (LoggingSlave(md, unzip, name=n, logging_on=False) for n in ("a", "b"))
     outs = [v.valueReference for v in md.modelVariables if v.causality == "output"
@@ -177,23 +169,10 @@ def test_a_state_restored_into_another_instance_steps_natively(fmu_path, md, tmp
     for k in range(5):
         a.fmu.doStep(k * 1e-4, 1e-4)
     b.fmu.setFMUstate(b.fmu.deSerializeFMUstate(a.fmu.serializeFMUstate(a.fmu.getFMUstate())))
-    cls = sys.modules["GearPair"].GearPair
-    calls = {"n": 0}
-    python_step = cls.do_step
-
-    def counted(self, t, h):
-        calls["n"] += 1
-        return python_step(self, t, h)
-
-    cls.do_step = counted
-    try:
-        for k in range(5, 25):
-            for g in (a, b):
-                g.fmu.doStep(k * 1e-4, 1e-4)
-            assert a.fmu.getReal(outs) == b.fmu.getReal(outs)
-    finally:
-        cls.do_step = python_step
-    assert calls["n"] == 1  # b's first step after the restore
+    for k in range(5, 25):
+        for g in (a, b):
+            g.fmu.doStep(k * 1e-4, 1e-4)
+        assert a.fmu.getReal(outs) == b.fmu.getReal(outs)
     for g in (a, b):
         g.fmu.terminate()
         g.fmu.freeInstance()

@@ -51,7 +51,7 @@ typedef struct {
 static void *job(void *arg) {
     Job *j = arg;
     int64_t st;
-    GpModel *m = gp_model_new(j->gear, j->choice, &st);
+    GpModel *m = gp_model_new(j->gear, j->choice, &st, NULL);
     j->rc = 2;
     if (m) {
         double *x = gp_model_block(m);
@@ -94,7 +94,7 @@ int main(int argc, char **argv) {
     if (scanf("%lf %lf %ld %lf %lf", &t0, &dt, &steps, &torque, &speed) != 5 || steps < 2)
         return fprintf(stderr, "run: t0 dt steps (>= 2) torque speed?\n"), 2;
     int64_t st;
-    GpModel *m = gp_model_new(gear, choice, &st);
+    GpModel *m = gp_model_new(gear, choice, &st, NULL);
     if (!m) {
         fprintf(stderr, "set-up refused: %s\n",
                 st > 0 && st < 7 ? GP_SETUP_STATUS[st] : "internal error");

@@ -16,6 +16,7 @@ struct GpModel {
     size_t state_words;
     double block[GP_N_X];
     int lti; /* the exact propagator steps this model */
+    int64_t n; /* tracked tooth pairs */
 };
 
 static void put(int64_t *table, int k, void *data, const int64_t *dims, int ndim) {
@@ -43,6 +44,7 @@ static int64_t make_records(GpModel *m) {
     int64_t n = flag[GP_I_NP], ntab = flag[GP_I_NTAB];
     if (n < 1 || n > GP_N_PAIRS_MAX) return -1;
     m->lti = flag[GP_I_LTI] != 0;
+    m->n = n;
     int64_t nk = flag[GP_I_KIND] == GP_KIND_CUBIC ? 4 * (ntab - 1) : ntab;
     const int64_t md_len[6] = {GP_N_MP, GP_N_MI, GP_N_Y, ntab, nk, ntab - 1};
     const int md_src[6] = {GPS_PAR, GPS_FLAG, GPS_ATOL, GPS_XI_KNOTS, GPS_K_COEF,
@@ -74,9 +76,11 @@ static int64_t make_records(GpModel *m) {
     return k == GP_HANDOFF_ARRAYS ? 0 : -1;
 }
 
-GpModel *gp_model_new(const double *gear, const double *choice, int64_t *status) {
+GpModel *gp_model_new(const double *gear, const double *choice, int64_t *status,
+                      double *eps) {
     GpModel *m = calloc(1, sizeof *m);
     int64_t st = m ? run_setup(m, gear, choice) : -1;
+    if (eps) *eps = m && m->setup[GPS_GEO] ? m->setup[GPS_GEO][GP_GEO_EPS] : 0.0;
     if (st == 0) st = make_records(m);
     if (status) *status = st;
     if (st != 0) {
@@ -110,6 +114,16 @@ int64_t gp_model_step(GpModel *m, double t, double h) {
     x[GP_X_FMU] = 1.0;
     int64_t table = (int64_t)(intptr_t)m->table;
     return m->lti ? gearpair_step_lti(table) : gearpair_step(table);
+}
+
+double gp_model_time(const GpModel *m) {
+    return m->state[GP_STATE_OFF_A[GP_CLOCK] + GP_STATE_OFF_B[GP_CLOCK] * m->n + GP_T_T];
+}
+
+const double *gp_model_summary(const GpModel *m) { return m->work[GP_WORK_SUMMARY]; }
+
+int64_t gp_model_max_events(const GpModel *m) {
+    return ((const int64_t *)m->setup[GPS_FLAG])[GP_I_MAXEV];
 }
 
 size_t gp_model_state_words(const GpModel *m) { return m->state_words; }

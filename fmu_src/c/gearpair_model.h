@@ -15,8 +15,10 @@ typedef struct GpModel GpModel;
 
 /* A new instance of gear data gear[GP_N_GEAR] (GearParams' order) and choices
  * choice[GP_N_CHOICE] (the set-up's C_* slots, NaN: not given). Returns it, or NULL with
- * *status the set-up's status (GP_SETUP_STATUS[*status] says why; -1: no memory). */
-GpModel *gp_model_new(const double *gear, const double *choice, int64_t *status);
+ * *status the set-up's status (GP_SETUP_TEXT[*status] says why, with the contact ratio
+ * *eps; -1: no memory); eps may be NULL. */
+GpModel *gp_model_new(const double *gear, const double *choice, int64_t *status,
+                      double *eps);
 void gp_model_free(GpModel *m);
 
 /* The step block (GP_X_* slots, the step record from GP_X_REC): inputs in, record out. */
@@ -29,6 +31,12 @@ int64_t gp_model_init(GpModel *m, double t0);
 /* One communication step from t over h with the block's inputs (an FMU's doStep: refused
  * when t is not the engine's time, rolled back when it fails). GP_STEP_* code. */
 int64_t gp_model_step(GpModel *m, double t, double h);
+
+/* The engine's time (s), the summary of its last step (GP_O_* slots: why it failed) and
+ * the most contact switches it takes in one step. */
+double gp_model_time(const GpModel *m);
+const double *gp_model_summary(const GpModel *m);
+int64_t gp_model_max_events(const GpModel *m);
 
 /* The engine's state: one buffer of gp_model_state_words doubles (a snapshot is a copy). */
 size_t gp_model_state_words(const GpModel *m);

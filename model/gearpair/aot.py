@@ -128,11 +128,12 @@ print(json.dumps({"ok": True}))
 
 
 def write_engine(folder: str | Path, package: str = "gearpair",
-                 timeout: float = 1800.0) -> dict:
+                 timeout: float = 1800.0, path: str | None = None) -> dict:
     """Write ``gearpair_engine.o`` and ``gearpair_engine.h`` into ``folder``, compiled in a
     child process for the portable CPU (about 40 s). Kept in the user cache under the
-    engine's key, so a second build with unchanged engine sources copies them. Returns
-    {"object", "header", "cached"}."""
+    engine's key, so a second build with unchanged engine sources copies them. ``path``: a
+    folder the child imports ``package`` from first. Returns {"object", "header",
+    "cached"}."""
     import shutil
 
     from .shipped import portable_target, user_cache_dir
@@ -153,6 +154,8 @@ def write_engine(folder: str | Path, package: str = "gearpair",
         return {"object": str(obj), "header": str(hdr), "cached": True}
     env = dict(os.environ, NUMBA_CPU_NAME=cpu, NUMBA_CPU_FEATURES="",
                GEARPAIR_COMPILE_NOTICE="")
+    if path:
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [path, env.get("PYTHONPATH")]))
     with tempfile.TemporaryDirectory(prefix="gearpair_aot_") as tmp:
         env["NUMBA_CACHE_DIR"] = tmp  # numba's cache of this child: thrown away
         proc = subprocess.run([sys.executable, "-c", _CHILD, package, cpu, str(obj),
@@ -274,7 +277,9 @@ def engine_header(package: str = "gearpair") -> str:
                                       "table size"]), ""]
     out += ["/* ModelData.flag slots the caller reads */",
             *(f"#define GP_{n} {getattr(layout, n)}" for n in
-              ("I_NP", "I_KIND", "I_NTAB", "I_LTI", "KIND_CUBIC", "N_MP", "N_MI", "N_Y")), ""]
+              ("I_NP", "I_KIND", "I_NTAB", "I_LTI", "I_MAXEV", "KIND_CUBIC", "N_MP", "N_MI",
+               "N_Y")), ""]
+    out += _messages(setup, layout, importlib.import_module(package + ".engine"))
     kinds = native.KINDS
     shapes = []
     for n in range(1, N_PAIRS_MAX + 1):
@@ -289,6 +294,8 @@ def engine_header(package: str = "gearpair") -> str:
     off1 = [(b - base1[0]) // 8 for b in base1]
     off2 = [(b - base2[0]) // 8 for b in base2]
     len1, len2 = [a.shape[0] for a in hs1], [a.shape[0] for a in hs2]
+    out += [f"#define GP_WORK_SUMMARY {layout.Work._fields.index('summary')}",
+            f"#define GP_CLOCK {layout.HybridState._fields.index('clock')}", ""]
     out += ["/* the hand-off table: 4 words per array (address, dimensions), in this order:",
             " * ModelData (6), Work (18), HybridState (6: views of the state buffer), the step",
             " * block, the state buffer, its rollback copy; kinds f/i (float64/int64) and ndim */",
@@ -316,3 +323,45 @@ def engine_header(package: str = "gearpair") -> str:
             f"#define GP_N_RECORD {len(sb.STEP_RECORD)}",
             names("GP_RECORD_NAMES", sb.STEP_RECORD), "", "#endif", ""]
     return "\n".join(out)
+
+
+def _c_format(text: str, fields: dict[str, str]) -> str:
+    """A C string literal of the message ``text`` with each rendered value (``fields``'s
+    keys, in the order they appear) replaced by its printf conversion; '%' escaped."""
+    out = text.replace("%", "%%")
+    for shown, conversion in fields.items():
+        if out.count(shown) != 1:
+            raise RuntimeError(f"cannot make a C format of {text!r}: {shown!r} is not there once")
+        out = out.replace(shown, conversion)
+    return '"' + out.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _messages(setup, layout, engine) -> list[str]:
+    """What the engine's statuses mean, as the Python API says it (`setup.setup_message`,
+    `engine.run_failure_message`), as printf formats for a C caller: the set-up's by status
+    (one %.3f: the contact ratio), a run failure's (%.9g time, %s flank state, %.6g DTE and,
+    when unbounded, %.4g bound)."""
+    import numpy as np
+
+    geo = np.zeros(setup.N_GEO)
+    geo[setup.GEO_EPS] = 0.123  # rendered "0.123" by the .3f of the contact-ratio message
+    texts = [_c_format(setup.setup_message(k, geo), {"0.123": "%.3f"} if
+                       k == setup.SETUP_CONTACT_RATIO else {}) for k in range(7)]
+    marks = {"1.23456789e-300": "%.9g", engine.FLANK_STATE[0]: "%s", "2.34567e-300": "%.6g",
+             "3.456e-300": "%.4g"}
+    missed = engine.run_failure_message("missed", 1.23456789e-300, 0, 2.34567e-300, 0.0)
+    unbounded = engine.run_failure_message("unbounded", 1.23456789e-300, 0, 2.34567e-300,
+                                           3.456e-300)
+    flank = ", ".join(f'"{s}"' for s in engine.FLANK_STATE)
+    return ["/* what a status means, as printf formats (Python's words) */",
+            f"#define GP_GEO_EPS {setup.GEO_EPS}",
+            f"static const char *const GP_SETUP_TEXT[{len(texts)}] = {{" + ", ".join(texts)
+            + "};",
+            f"static const char *const GP_FLANK_STATE[{len(engine.FLANK_STATE)}] = {{{flank}}};",
+            "#define GP_FAIL_MISSED " + _c_format(missed, {k: v for k, v in marks.items()
+                                                          if k != "3.456e-300"}),
+            "#define GP_FAIL_UNBOUNDED " + _c_format(unbounded, marks),
+            *(f"#define GP_{n} {getattr(layout, n)}" for n in
+              ("O_STATUS", "O_TFAIL", "O_DFAIL", "O_CFAIL", "O_BFAIL", "STATUS_OK",
+               "STATUS_EVENTS", "STATUS_STEP", "STATUS_MISSED", "STATUS_UNBOUNDED", "T_T")),
+            ""]

@@ -79,8 +79,11 @@ def simulate1(r):
 def core_calls(c):
     # `gearpair.bench._record_calls` of the FMU's bundled package, which the FMU instances
     # imported as `_gearpair_fmu`: the loop an FMU master drives, without the FMU
-    gp = sys.modules["_gearpair_fmu"]
-    bench = importlib.import_module("_gearpair_fmu.bench")
+    # (the default engine runs in the FMU's binary and imports no package: the installed
+    # gearpair then, the same sources)
+    name = "_gearpair_fmu" if "_gearpair_fmu" in sys.modules else "gearpair"
+    gp = importlib.import_module(name)
+    bench = importlib.import_module(name + ".bench")
     took = bench._record_calls(gp.make_engine(None, bench.regime_effects(c["regime"]), "fast",
                                               rtol=c["rtol"]), c["t_end"], c["step"])
     return took.wall, took.cpu
@@ -238,13 +241,33 @@ def _run_on_the_binary_of(noop: Path, gearpair_fmu: str | Path, md) -> None:
     if n != 1:
         raise RuntimeError("the no-op slave's modelDescription.xml has no guid")
     entries["modelDescription.xml"] = xml.encode("utf-8")
-    entries[f"binaries/linux64/{noop_model}.so"] = copied.pop(layer)
-    entries.update(copied)  # the library under the layer, python.txt, gearpair_python.py
+    copied.pop(layer)
+    entries[f"binaries/linux64/{noop_model}.so"] = _noop_binary(gearpair_fmu, xml)
     tmp = noop.with_suffix(".tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
         for name, data in entries.items():
             z.writestr(name, data)
     tmp.replace(noop)
+
+
+def _noop_binary(gearpair_fmu: str | Path, xml: str) -> bytes:
+    """The generic FMI layer over a model that does nothing, compiled by the builder that
+    built ``gearpair_fmu`` (its build record names it) for the variables of ``xml``."""
+    import importlib.util
+    import tempfile
+
+    from ..scenes import location
+
+    record = location.read_record(gearpair_fmu) or {}
+    builder = Path(record.get("builder", ""))
+    if not builder.is_file():
+        raise RuntimeError(f"{gearpair_fmu} has no build record naming its builder "
+                           "(build_fmu.py): the no-op floor needs its C layer's sources")
+    spec = importlib.util.spec_from_file_location("_gearpair_bench_builder", builder)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    with tempfile.TemporaryDirectory(prefix="gearpair_noop_") as tmp:
+        return mod.noop_binary(xml.encode("utf-8"), Path(tmp))
 
 
 def fmu_start(fmu: str | Path, regime: str, rtol: float, effects=None) -> dict:

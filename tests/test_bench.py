@@ -307,6 +307,37 @@ def test_equal_accuracy_counts_a_row_only_if_its_whole_run_meets_the_bar():
     assert "100 x" in claim and "50 x" in claim and "rtol 1e-08" in claim
 
 
+def test_plain_rows_are_the_best_of_rounds_that_run_every_row_once(monkeypatch):
+    from gearpair.bench import plain
+    from gearpair.bench.runs import BudgetExceeded
+
+    t = np.arange(41) * 1e-4
+    ref = {"time": t, "dte": np.sin(t * 1e3), "mesh_force": np.cos(t * 1e3), "dt": 1e-4}
+    calls = []
+    walls = iter([3.0, 2.0, 9.0, 1.0, 5.0])  # rtol 1e-6 then 1e-9, round by round
+
+    def fake_run(regime, method, rtol, t_end, dt):
+        calls.append(rtol)
+        if rtol == 1e-9 and len(calls) == 5:
+            raise BudgetExceeded("over")  # a later round over budget: the first run stands
+        if rtol == 1e-5:
+            raise ArithmeticError("stall")
+        w = next(walls)
+        return bench.Timing(w, w / 2), {k: ref[k] for k in ("time", "dte", "mesh_force")}
+
+    monkeypatch.setattr(plain, "plain_run", fake_run)
+    s = replace(bench.QUICK, repeats=3, windows=(("stick_slip", 0.002),), horizon=0.004,
+                plain_rtols=(("DOP853", (1e-6, 1e-5, 1e-9)),), check_horizon=0)
+    rows, checks = plain.plain_rows(s, {"stick_slip": ref})
+    # interleaved: every row once per round; a row that failed in round 1 is not run again
+    assert calls == [1e-6, 1e-5, 1e-9, 1e-6, 1e-9, 1e-6, 1e-9]
+    by = {r["rtol"]: r for r in rows}
+    assert by[1e-6]["wall_s"] == 1.0 and by[1e-6]["cpu_s"] == 0.5  # best of 3.0, 9.0, 1.0
+    assert by[1e-9]["wall_s"] == 2.0  # 2.0, then over budget, then 5.0
+    assert by[1e-5]["error"] == "ArithmeticError: stall" and np.isnan(by[1e-5]["wall_s"])
+    assert by[1e-6]["err_dte"] == 0.0 and checks == []
+
+
 def test_a_short_run_says_its_ratios_do_not_stand_for_the_full_run(quick):
     from dataclasses import asdict
 

@@ -182,7 +182,15 @@ def test_c_host_rows(quick):
     assert float(row["measured"]) == pytest.approx(th["step_over_floor"], abs=0.006)
     text = bench.report(quick)
     assert "C host" in text and "C layer" in text and "two processes" in text
-    assert any("C layer's own cost" in t["target"] for t in quick["targets"])
+    assert any("FMI layer's own cost" in t["target"] for t in quick["targets"])
+    # the FMU without Python (issue 33): whole processes and further instances, measured
+    pr, inst = ch["process"], ch["instances"]
+    assert pr["error"] is None and 0 < pr["wall_s"] and 0 < pr["peak_mb"], pr
+    assert inst["error"] is None and inst["further_s"] > 0 and inst["k"] == 20, inst
+    for words in ("a whole process (instantiate", "a whole process, peak memory",
+                  "each further instance, fmi2Instantiate", "each further instance adds",
+                  "not slower than the native step"):
+        assert any(words in t["target"] for t in quick["targets"]), words
     assert any("two in two processes" in t["target"] for t in quick["targets"])
 
 

@@ -1,22 +1,20 @@
-"""The FMU in a C master: per-step cost and first start.
+"""The FMU in a C master: per-step cost, whole processes, further instances, first start.
 
 A small timing host of the package's own (``fmi2_bench_host.c`` beside this module, compiled
 here with gcc against the FMI 2 headers that fmpy ships) runs the loop a co-simulation
 master runs, ``fmi2SetReal`` of 2 inputs, ``fmi2DoStep``, ``fmi2GetReal`` of 4 outputs, on
-GearPair and on the no-op slave (run on GearPair's own binary, its C layer over pythonfmu's
-library) at
-1e-4 s and 1e-3 s communication steps; fmpy runs the same loop in a Python process, and the
-engine's own work at the same step (``advance_values`` + ``output_values``: the same
-compiled step, called from Python) is timed in this process over the same model-time
-windows. The no-op slave is the C layer's own cost per step. The host also times the
-first start (instantiate, initialize, first step) with empty caches (fresh
-``NUMBA_CACHE_DIR`` and ``XDG_CACHE_HOME``: the FMU loads the compiled code it ships) and
-again with the caches it filled.
+GearPair and on the no-op FMU (the same generic FMI layer over a model that does nothing:
+the layer's own cost per step) at 1e-4 s and 1e-3 s communication steps; fmpy runs the same
+loop in a Python process, and the engine's own work at the same step (the same compiled
+step, called from Python) is timed in this process over the same model-time windows. The
+host also runs whole processes as a master does (instantiate, one step, free, exit: wall
+time and peak memory, `host_process`), makes further instances in one process
+(`host_instances`), and times the first start with empty caches and again with the caches
+it filled (the FMU needs none: its engine is in its binary).
 
-The host prints its result and flushes it before it frees the instance, so a crash while
-the process exits (pythonfmu's teardown, docs/hosts.md) costs no data; the exit status is
-reported beside the numbers. Without gcc, fmpy's headers or a shared libpython the section
-is skipped with a note.
+The host prints its result and flushes it before it frees the instance; the exit status is
+reported beside the numbers. Without gcc or fmpy's headers the section is skipped with a
+note.
 """
 
 from __future__ import annotations
@@ -25,7 +23,6 @@ import json
 import os
 import shutil
 import subprocess
-import sysconfig
 import tempfile
 import zipfile
 from pathlib import Path
@@ -46,9 +43,9 @@ THREAD_MODES = ("main", "worker", "pair", "serial")
 def build_host(workdir: Path) -> tuple[dict | None, str | None]:
     """Compile the timing host; (host, None) or (None, why the section is skipped).
 
-    ``host`` holds the executable and the environment variables it adds: none. The FMU
-    finds the Python that built it by itself (docs/hosts.md), as in any C master, so the
-    host runs as a user's would; the FMU needs that Python's shared libpython."""
+    ``host`` holds the executable and the environment variables it adds: none. The FMU's
+    default engine is compiled into its binary and needs no Python, so the host runs as a
+    user's would."""
     gcc = shutil.which("gcc")
     if gcc is None:
         return None, "C host rows skipped: gcc not found"
@@ -57,11 +54,6 @@ def build_host(workdir: Path) -> tuple[dict | None, str | None]:
     except ImportError:
         return None, "C host rows skipped: fmpy (for the FMI 2 headers) is not installed"
     headers = Path(fmpy.__file__).parent / "c-code"
-    lib = sysconfig.get_config_var("LDLIBRARY") or ""
-    libpython = Path(sysconfig.get_config_var("LIBDIR") or "") / lib
-    if not (lib.endswith(".so") or ".so." in lib) or not libpython.is_file():
-        return None, (f"C host rows skipped: this Python has no shared libpython ({lib!r}), "
-                      "which the FMU loads in a C host")
     exe = Path(workdir) / "fmi2_bench_host"
     proc = subprocess.run([gcc, "-O2", "-std=c99", f"-I{headers}", "-o", str(exe),
                            str(HOST_SOURCE), "-ldl", "-lpthread"], capture_output=True,
@@ -82,14 +74,8 @@ def extract(fmu: str | Path, dest: Path) -> dict:
             "vars": {v.name: (v.valueReference, v.type) for v in md.modelVariables}}
 
 
-def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
-             env: dict | None = None, timeout: float = 600.0, threads: str = "main",
-             spin: int = 0) -> dict:
-    """One host process: its RESULT line as a dict, with ``exit_status``; ``threads`` the
-    host's thread mode (main, worker, pair, serial: `THREAD_MODES`; or interleaved, with
-    ``spin`` multiply-adds of the machine ceiling's arithmetic per round: `host_threads`).
-
-    Raises RuntimeError when the host printed no result (it failed before its loop)."""
+def _host_args(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
+               threads: str, spin: int) -> list[str]:
     vr = unit["vars"]
     args = [host["exe"], unit["dir"], unit["model"], unit["guid"], repr(step), str(n),
             str(blocks), ",".join(str(vr[k][0]) for k in INPUTS),
@@ -102,7 +88,19 @@ def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: i
             continue
         value = int(bool(value)) if typ == "Boolean" else value
         args += [flag[typ], f"{ref}={value!r}"]
-    args += ["-t", threads] + (["-c", str(spin)] if spin else [])
+    return args + ["-t", threads] + (["-c", str(spin)] if spin else [])
+
+
+def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
+             env: dict | None = None, timeout: float = 600.0, threads: str = "main",
+             spin: int = 0) -> dict:
+    """One host process: its RESULT line as a dict, with ``exit_status``; ``threads`` the
+    host's thread mode (main, worker, pair, serial: `THREAD_MODES`; instances: set-up only,
+    `host_instances`; or interleaved, with ``spin`` multiply-adds of the machine ceiling's
+    arithmetic per round: `host_threads`).
+
+    Raises RuntimeError when the host printed no result (it failed before its loop)."""
+    args = _host_args(host, unit, start, step, n, blocks, threads, spin)
     child = dict(os.environ if env is None else env, **host["env"])
     child.pop("PYTHONHOME", None)
     proc = subprocess.run(args, capture_output=True, text=True, env=child, timeout=timeout)
@@ -195,6 +193,9 @@ def host_measurements(s: Settings, fmu: Path, noop: Path, workdir: str | Path,
     out["threads"] = host_threads(host, units["gearpair"], starts["gearpair"],
                                   s.host_steps[0], s.host_n, s.host_rounds, s.round_spin,
                                   progress)
+    progress("C host: whole processes and further instances")
+    out["process"] = host_process(host, units["gearpair"], starts["gearpair"])
+    out["instances"] = host_instances(host, units["gearpair"], starts["gearpair"])
     if s.startup:
         out["startup"] = host_startup(host, units["gearpair"], starts["gearpair"], progress)
     return out
@@ -302,6 +303,50 @@ def host_startup(host: dict, unit: dict, start: dict, progress: Progress = _quie
         except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
             out["error"] = f"{type(exc).__name__}: {exc}"
     return out
+
+
+def host_process(host: dict, unit: dict, start: dict, repeats: int = 5) -> dict:
+    """A whole process as a C master runs one, with an empty environment: load the FMU,
+    instantiate, initialize, one 1e-4 s step, free, exit. Its wall time (start to exit) and
+    peak resident memory (the host's VmHWM after its step: a child's ``ru_maxrss`` would
+    count the Python process it was forked from), the best of ``repeats``."""
+    args = _host_args(host, unit, start, 1e-4, 1, 1, "main", 0)
+    best: dict = {"error": None, "wall_s": None, "peak_mb": None}
+    try:
+        for _ in range(repeats):
+            t0 = clock()[0]
+            proc = subprocess.Popen(args, env={"PATH": "/usr/bin:/bin"},
+                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+            text = proc.stdout.read().decode()  # one short line, then the exit
+            proc.wait()
+            wall = clock()[0] - t0
+            proc.stdout.close()
+            lines = [ln for ln in text.splitlines() if ln.startswith("RESULT ")]
+            if proc.returncode != 0 or not lines:
+                raise RuntimeError(f"the host failed (exit {proc.returncode}): {text[-300:]}")
+            peak = json.loads(lines[-1][len("RESULT "):])["peak_rss_kb"] / 1024.0
+            if best["wall_s"] is None or wall < best["wall_s"]:
+                best["wall_s"] = wall
+            if best["peak_mb"] is None or peak < best["peak_mb"]:
+                best["peak_mb"] = peak
+    except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+        best["error"] = f"{type(exc).__name__}: {exc}"
+    return best
+
+
+def host_instances(host: dict, unit: dict, start: dict, k: int = 20) -> dict:
+    """``k`` instances made one after the other in one C-host process: per further instance
+    (after the first, which also loads the library) the median time from fmi2Instantiate to
+    the end of fmi2ExitInitializationMode and the resident memory it adds (the growth from
+    the first to the last, over k - 1)."""
+    try:
+        got = run_host(host, unit, start, 1e-4, 1, k, threads="instances")
+    except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    rss = got["rss_kb"]
+    return {"error": None, "k": k, "first_s": got["setup_s"][0],
+            "further_s": median(got["setup_s"][1:]),
+            "further_mb": (rss[-1] - rss[0]) / (k - 1) / 1024.0}
 
 
 def exit_note(status: int) -> str:

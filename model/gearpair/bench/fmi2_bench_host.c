@@ -37,6 +37,13 @@
  * pair_s and procs_s (first start to last end of the two blocks), floor_s, spin_serial_s
  * and spin_pair_s, and twin_digest, the forked copy's digest.
  *
+ * "instances" instantiates and initializes BLOCKS instances one after the other in the main
+ * thread (each also takes its first step) and steps none further: the RESULT line then has
+ * "setup_s" (per instance, fmi2Instantiate to the end of fmi2ExitInitializationMode) and
+ * "rss_kb" (the process's resident memory after each, from /proc/self/statm).
+ *
+ * "peak_rss_kb" is the process's peak resident memory when it prints (VmHWM).
+ *
  * Build (the FMI 2 headers ship with fmpy, in fmpy/c-code):
  *     gcc -O2 -std=c99 -I"$FMPY/c-code" -o fmi2_bench_host fmi2_bench_host.c -ldl -lpthread
  * Usage:
@@ -75,6 +82,29 @@ static void log_message(fmi2ComponentEnvironment env, fmi2String instance, fmi2S
     vfprintf(stderr, message, ap);
     fputc('\n', stderr);
     va_end(ap);
+}
+
+/* The process's resident memory (kB), or 0 where /proc is not there. */
+static long rss_kb(void) {
+    long size = 0, resident = 0;
+    FILE *f = fopen("/proc/self/statm", "r");
+    if (f) {
+        if (fscanf(f, "%ld %ld", &size, &resident) != 2) resident = 0;
+        fclose(f);
+    }
+    return resident * (sysconf(_SC_PAGESIZE) / 1024);
+}
+
+/* The process's peak resident memory so far (kB, VmHWM of /proc/self/status), or 0. */
+static long peak_kb(void) {
+    char line[256];
+    long kb = 0;
+    FILE *f = fopen("/proc/self/status", "r");
+    if (!f) return 0;
+    while (fgets(line, sizeof line, f))
+        if (!strncmp(line, "VmHWM:", 6)) kb = strtol(line + 6, NULL, 10);
+    fclose(f);
+    return kb;
 }
 
 static double now(clockid_t id) {
@@ -411,10 +441,13 @@ int main(int argc, char **argv) {
     fmi2FreeInstanceTYPE *free_instance = (fmi2FreeInstanceTYPE *)need(lib, "fmi2FreeInstance");
 
     fmi2CallbackFunctions callbacks = {log_message, calloc, free, NULL, NULL};
-    int mixed = !strcmp(mode, "interleaved");
-    int n_inst = mixed ? N_MIXED : (!strcmp(mode, "pair") || !strcmp(mode, "serial")) ? 2 : 1;
+    int mixed = !strcmp(mode, "interleaved"), many = !strcmp(mode, "instances");
+    int n_inst = mixed ? N_MIXED : many ? (int)blocks
+                 : (!strcmp(mode, "pair") || !strcmp(mode, "serial")) ? 2 : 1;
     if (mixed && n % 10) return 2; /* the floor instance steps n / 10 times 10 h */
-    Run run[N_MIXED];
+    static Run run[MAXB > N_MIXED ? MAXB : N_MIXED];
+    double setup_s[MAXB];
+    long rss[MAXB];
     double t0 = now(CLOCK_MONOTONIC), t1 = t0, t2 = t0, t3 = t0;
     for (int i = 0; i < n_inst; i++) {
         Run *r = &run[i];
@@ -451,6 +484,10 @@ int main(int argc, char **argv) {
         if ((st = enter_init(c)) > fmi2Warning) return fail("fmi2EnterInitializationMode", st);
         if ((st = exit_init(c)) > fmi2Warning) return fail("fmi2ExitInitializationMode", st);
         if (!i) t2 = now(CLOCK_MONOTONIC);
+        if (many) {
+            setup_s[i] = now(CLOCK_MONOTONIC) - a0;
+            rss[i] = rss_kb();
+        }
         if ((st = set_real(c, in_vr, (size_t)n_in, in_val)) > fmi2Warning)
             return fail("fmi2SetReal (inputs)", st);
         if ((st = do_step(c, 0.0, r->h, fmi2True)) > fmi2Warning)
@@ -460,7 +497,9 @@ int main(int argc, char **argv) {
 
     double w0 = now(CLOCK_MONOTONIC);
     Rounds rounds;
-    if (mixed) {
+    if (many) {
+        /* no loop: the instances' set-up was what this mode measures */
+    } else if (mixed) {
         if (interleave(run, blocks, spin_n, &rounds))
             return fail("a thread or the forked copy (interleaved mode)", -1);
     } else if (!strcmp(mode, "main") || !strcmp(mode, "serial")) {
@@ -476,14 +515,23 @@ int main(int argc, char **argv) {
     double total = now(CLOCK_MONOTONIC) - w0;
     for (int i = 0; i < n_inst; i++)
         if (run[i].status > fmi2Warning) return fail("the step loop", run[i].status);
-    printf("RESULT {\"ok\": 1, \"threads\": \"%s\", \"instantiate_s\": %.9g, "
+    printf("RESULT {\"ok\": 1, \"peak_rss_kb\": %ld, \"threads\": \"%s\", "
+           "\"instantiate_s\": %.9g, "
            "\"initialize_s\": %.9g, \"first_step_s\": %.9g, \"steps_per_block\": %ld, "
-           "\"last_output\": %.17g, \"total_wall_s\": %.9g, ", mode, t1 - t0, t2 - t1,
+           "\"last_output\": %.17g, \"total_wall_s\": %.9g, ", peak_kb(), mode, t1 - t0,
+           t2 - t1,
            t3 - t2, n, n_out ? run[0].out_val[0] : 0.0, total);
     print_times("block_wall_s", run[0].wall, blocks);
     printf(", ");
     print_times("block_cpu_s", run[0].cpu, blocks);
     if (mixed) print_rounds(&rounds, blocks);
+    if (many) {
+        printf(", ");
+        print_times("setup_s", setup_s, n_inst);
+        printf(", \"rss_kb\": [");
+        for (int i = 0; i < n_inst; i++) printf("%s%ld", i ? ", " : "", rss[i]);
+        printf("]");
+    }
     printf(", \"instances\": [");
     for (int i = 0; i < n_inst; i++) {
         printf("%s{\"digest\": \"%016llx\", ", i ? ", " : "",

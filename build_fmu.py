@@ -40,6 +40,8 @@ PACKAGE = ROOT / "model" / "gearpair"
 SHIM_SRC = ROOT / "fmu_src" / "c"
 PYTHON_SCRIPT = ROOT / "fmu_src" / "gearpair_python.py"  # resources: which Python to load
 INNER_SUFFIX = "_pythonfmu.so"  # pythonfmu's library beside the C layer: <model><suffix>
+# the slave's own modules beside it (fmu_src; resources in the FMU)
+SLAVE_MODULES = ("fmu_interface", "fmu_bundle", "fmu_state")
 
 
 def requirements() -> str:
@@ -533,7 +535,8 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             progress("packing the FMU with pythonfmu")
             fmu = FmuBuilder.build_FMU(
                 script, dest=Path(part) / "GearPair.fmu",
-                project_files=[staging / "gearpair", staging / "requirements.txt"],
+                project_files=[staging / "gearpair", staging / "requirements.txt",
+                               *(script.parent / f"{m}.py" for m in SLAVE_MODULES)],
                 documentation_folder=docs,
                 canHandleVariableCommunicationStepSize=True,
                 canGetAndSetFMUstate=True, canSerializeFMUstate=True)

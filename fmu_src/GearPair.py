@@ -23,7 +23,6 @@ from __future__ import annotations
 import functools
 import importlib
 import importlib.util
-import io
 import math
 import operator
 import os
@@ -36,253 +35,37 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Boolean, Integer, Real
 
-STATE_FORMAT = "gearpair-fmu-state/1"
-BUNDLE = "_gearpair_fmu"  # import name of the bundled package (never ``gearpair``)
 RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
 
-# The slave's own choice (not an effect; the effects' choices, codes and ranges come from
-# `gearpair.effects.OPTIONS`): the integrator, coded as its index in `gearpair.ENGINES`.
-ENGINE_DOC = ("integrator: numba-compiled (fast; falls back to reference without numba) or "
-              "the scipy yardstick (reference)")
-# The parameters after GearParams' and the outputs added later, in registration order (value
-# references follow it): the effects' FMU parameters (`gearpair.effects.OPTIONS`, "fmu") and the
-# slave's own. Append, never reorder: a new effect's parameter goes at the end.
-LATER_VARIABLES = ("stiffness_model", "separation", "friction_law", "v_eps", "sliding",
-                   "stick_tie", "engine", "backlash", "dof", "load_speed_input", "rtol",
-                   "mu_static", "stribeck_velocity", "back_fraction", "mesh_force_mean",
-                   "mesh_force_min")
 
-# Display units chosen for parameters by their unit.
-_PARAM_DISPLAY_UNIT = {"rad": "deg", "m": "mm"}
-
-# Outputs: name, type, unit, display unit, min, max, description. Their values come from the
-# engine's Outputs (instantaneous, at the end of the step) and StepSummary (over the step).
-OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | None, str], ...] = (
-    ("dte", "Real", "m", "um", None, None,
-     "dynamic transmission error: mesh deflection along the line of action, Eq. (3)"),
-    ("mesh_force", "Real", "N", "kN", None, None,
-     "elastic mesh force km*Theta(delta)*delta, Eq. (16)"),
-    ("friction_force", "Real", "N", None, None, None,
-     "total tangential tooth force (sliding or static friction), sum over the pairs"),
-    ("contact_state", "Integer", None, None, 0, 3,
-     "contact state at the end of the step: 0 separated, 1 slip, 2 stick (any pair stuck), "
-     "3 back flanks in contact (backlash > 0)"),
-    ("output_torque", "Real", "N.m", None, None, None,
-     "torque delivered to the gear 2 shaft"),
-    ("input_torque_reaction", "Real", "N.m", None, None, None,
-     "torque the mesh exerts back on gear 1 about its axis"),
-    ("input_torque", "Real", "N.m", None, None, None,
-     "torque the input side delivers into gear 1 (torque input plus input shaft kr1): the "
-     "load a driving motor feels"),
-    ("gear1_speed", "Real", "rad/s", "rpm", None, None,
-     "absolute speed of gear 1 (nominal + vibration)"),
-    ("gear2_speed", "Real", "rad/s", "rpm", None, None,
-     "absolute speed of gear 2 (nominal + vibration)"),
-    ("sliding_velocity", "Real", "m/s", None, None, None,
-     "relative sliding velocity of the tooth pair nearest the pitch point"),
-    ("stick_fraction", "Real", "1", None, 0.0, 1.0,
-     "fraction of the last communication step spent in stick (from located switches)"),
-    ("separation_fraction", "Real", "1", None, 0.0, 1.0,
-     "fraction of the last communication step with the teeth apart"),
-    ("mesh_force_max", "Real", "N", "kN", None, None,
-     "greatest elastic mesh force in the last communication step"),
-    ("n_events", "Integer", None, None, 0, None,
-     "number of state switches located in the last communication step"),
-)
-# Step figures added later: registered after every other variable (`interface`), so the value
-# references of the earlier ones stay as they were; their values are the last three step
-# figures in `StepSummary`'s order (`_values_of`, `FastEngine.advance_values`).
-APPENDED_OUTPUTS: tuple[tuple[str, str, str | None, str | None, float | None, float | None,
-                              str], ...] = (
-    ("back_fraction", "Real", "1", None, 0.0, 1.0,
-     "fraction of the last communication step with the back flanks in contact (backlash > 0: "
-     "contact under a negative torque, not contact loss)"),
-    ("mesh_force_mean", "Real", "N", "kN", None, None,
-     "time mean of the elastic mesh force over the last communication step (from the "
-     "engine's integral over its steps)"),
-    ("mesh_force_min", "Real", "N", "kN", None, None,
-     "least elastic mesh force in the last communication step"),
-)
-def _resources_folder(resources: str | None) -> str | None:
-    """The resources folder as a normal absolute path.
-
-    The FMU's C layer hands pythonfmu ``file://`` + an absolute path, which pythonfmu turns
-    into that path; a path with leading ``//`` (a ``file:////abs`` location given to
-    pythonfmu directly) or a leftover ``file:`` URI names the same folder.
-    """
-    if not resources:
-        return resources
-    path = resources
-    if path[:5].lower() == "file:":
-        from urllib.parse import unquote, urlsplit
-
-        parts = urlsplit(path)
-        if parts.netloc not in ("", "localhost"):
-            return path
-        path = unquote(parts.path)
-    if path.startswith("//"):
-        path = "/" + path.lstrip("/")
-    return os.path.abspath(path)
+def _sibling(name: str):
+    """The module ``name`` of the FMU's sources beside this file (in an FMU: its resources
+    folder), imported under a private name of its own folder."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), name + ".py")
+    key = f"_gearpair_fmu_{name}_{abs(hash(path)):x}"
+    mod = sys.modules.get(key)
+    if mod is None:
+        spec = importlib.util.spec_from_file_location(key, path)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        sys.modules[key] = mod
+    return mod
 
 
-def _unlist_resources(resources: str | None) -> None:
-    """Take the resources folder off ``sys.path`` again.
-
-    pythonfmu's binary puts it first on ``sys.path`` to import this script and leaves it
-    there, so in a Python host a later ``import gearpair`` would find the FMU's copy (and
-    fail once the host deleted the folder) instead of the host's own. This module is
-    imported by then and the bundled package needs no ``sys.path`` entry (`_import_gearpair`).
-    Only in an extracted FMU, recognised by a ``binaries`` folder beside it (fmpy extracts
-    just ``binaries`` and ``resources``): pythonfmu's builder instantiates the slave with the
-    script's own folder, which it removes itself.
-    """
-    where = _resources_folder(resources)
-    if where and os.path.isdir(os.path.join(os.path.dirname(where), "binaries")):
-        sys.path[:] = [p for p in sys.path if not (p and _resources_folder(p) == where)]
-
-
-def _package_alive(mod) -> bool:
-    """Whether a package's folder still exists (hosts delete an FMU's extracted folder)."""
-    paths = list(getattr(mod, "__path__", []))
-    return any(os.path.isfile(os.path.join(p, "__init__.py")) for p in paths)
-
-
-def _import_gearpair(resources: str | None):
-    """The gearpair package of this FMU: the copy in ``resources`` imported as `BUNDLE`.
-
-    Neither ``sys.path`` nor a ``gearpair`` of the host is touched, so a host that imports
-    gearpair later gets its own. Instances share the bundled package while its folder exists;
-    after a host deleted it, the next instance imports its own copy (live instances keep the
-    module objects they hold). Without a bundled copy (this module imported outside an FMU,
-    e.g. by the builder's documentation) the installed ``gearpair`` is used.
-    """
-    folder = os.path.join(resources, "gearpair") if resources else ""
-    init = os.path.join(folder, "__init__.py")
-    if not os.path.isfile(init):
-        gp = importlib.import_module("gearpair")
-    else:
-        gp = sys.modules.get(BUNDLE)
-        if gp is not None and not _package_alive(gp):
-            for name in [n for n in sys.modules if n == BUNDLE or n.startswith(BUNDLE + ".")]:
-                del sys.modules[name]
-            gp = None
-        if gp is None:
-            spec = importlib.util.spec_from_file_location(
-                BUNDLE, init, submodule_search_locations=[folder])
-            gp = importlib.util.module_from_spec(spec)
-            sys.modules[BUNDLE] = gp
-            try:
-                spec.loader.exec_module(gp)
-            except BaseException:
-                del sys.modules[BUNDLE]
-                raise
-    for sub in ("params", "effects", "engine"):
-        importlib.import_module(f"{gp.__name__}.{sub}")
-    return gp
+_declared = _sibling("fmu_interface")  # the one declaration of the FMU's variables
+_bundle = _sibling("fmu_bundle")  # the bundled gearpair package
+_state = _sibling("fmu_state")  # the FMU state as bytes
+BUNDLE, STATE_FORMAT = _bundle.BUNDLE, _state.STATE_FORMAT
+_resources_folder, _unlist_resources = _bundle._resources_folder, _bundle._unlist_resources
+_import_gearpair, _loads_state = _bundle._import_gearpair, _state._loads_state
+OUTPUTS, APPENDED_OUTPUTS = _declared.OUTPUTS, _declared.APPENDED_OUTPUTS
+choices = _declared.choices
 
 
 def interface(gp=None) -> list[dict[str, Any]]:
-    """Every FMU variable in registration (value reference) order, as plain dicts.
-
-    Keys: name, type (Real/Integer/Boolean), causality, variability, unit, display_unit, min,
-    max, start (None for outputs), description, lo_open, and for an integer-coded choice
-    field (what it sets) and codes (the choices in code order, `choices`). The single source
-    for the slave's variables, the modelDescription post-processing and the documentation
-    page; parameter data come from ``GearParams.describe()``, the effects' from their
-    metadata (``gearpair.effects.OPTIONS``) and the input data from ``OperatingPoint``.
-    """
-    if gp is None:
-        gp = _import_gearpair(None)
-    from dataclasses import fields
-
-    params_mod = importlib.import_module(gp.__name__ + ".params")
-    out: list[dict[str, Any]] = []
-
-    def add(name, typ, causality, variability, unit=None, display_unit=None, lo=None,
-            hi=None, start=None, description="", lo_open=False, field=None, codes=None):
-        out.append(dict(name=name, type=typ, causality=causality, variability=variability,
-                        unit=unit, display_unit=display_unit, min=lo, max=hi, start=start,
-                        description=description, lo_open=lo_open, field=field, codes=codes))
-
-    display_in = {"torque": None, "speed": "rpm"}
-    for f in fields(params_mod.OperatingPoint):
-        m = f.metadata
-        add(f.name, "Real", "input", "continuous", m["unit"], display_in.get(f.name),
-            m["min"], m["max"], float(f.default), m["doc"] + ", held over each step")
-    add("load_speed", "Real", "input", "continuous", "rad/s", "rpm", -params_mod.SPEED_MAX,
-        params_mod.SPEED_MAX, 0.0,
-        "speed of the load at the far end of the load shaft kr2 (gear 2's sense), held over "
-        "each step; used only when the parameter load_speed_input is true")
-
-    for name, typ, unit, dunit, lo, hi, doc in OUTPUTS:
-        add(name, typ, "output", "discrete" if typ == "Integer" else "continuous", unit, dunit,
-            lo, hi, None, doc)
-
-    for row in params_mod.GearParams.describe():
-        is_int = isinstance(row["default"], int) and not isinstance(row["default"], bool)
-        doc = row["doc"]
-        if row.get("lo_open"):
-            doc += f" (must be > {row['min']:g})"
-        add(row["name"], "Integer" if is_int else "Real", "parameter", "fixed",
-            None if is_int else row["unit"], _PARAM_DISPLAY_UNIT.get(row["unit"]),
-            row["min"], row["max"], row["default"], doc, lo_open=bool(row.get("lo_open")))
-
-    effects_mod = importlib.import_module(gp.__name__ + ".effects")
-    defaults = effects_mod.Effects().values()
-    by_fmu = {m["fmu"]: (name, m) for name, m in effects_mod.OPTIONS.items()}
-    unplaced = sorted(set(by_fmu) - set(LATER_VARIABLES))
-    if unplaced:
-        raise RuntimeError(f"effect parameter(s) {', '.join(unplaced)} have no place in "
-                           "LATER_VARIABLES (append them: value references never move)")
-    appended = {row[0]: row for row in APPENDED_OUTPUTS}
-    for name in LATER_VARIABLES:
-        if name in by_fmu:
-            field_name, m = by_fmu[name]
-            add(name, **_effect_variable(m, defaults[field_name]), field=field_name)
-        elif name == "engine":
-            engines = tuple(gp.ENGINES)
-            add(name, "Integer", "parameter", "fixed", None, None, 0, len(engines) - 1, 0,
-                f"{ENGINE_DOC}: {_listing(engines)}", field="engine", codes=engines)
-        elif name == "load_speed_input":
-            add(name, "Boolean", "parameter", "fixed", start=False,
-                description="true: the load shaft kr2/cr2 ends at a load turning at the input "
-                "load_speed (a driveline; power flows both ways); false: it ends at the "
-                "nominal rotation (the paper)")
-        elif name == "rtol":
-            add("rtol", "Real", "parameter", "fixed", "1", None, params_mod.RTOL_MIN,
-                params_mod.RTOL_MAX, 1e-8, "relative tolerance of the engine's integrator")
-        else:
-            _, typ, unit, dunit, lo, hi, doc = appended[name]
-            add(name, typ, "output", "continuous", unit, dunit, lo, hi, None, doc)
-    return out
-
-
-def _listing(codes) -> str:
-    return ", ".join(f"{i} {c}" for i, c in enumerate(codes))
-
-
-def _effect_variable(m: dict, default) -> dict:
-    """`interface` arguments of an effect's FMU parameter from its metadata
-    (`gearpair.effects.OPTIONS`): a choice as its code (the index), a number with 0 for None."""
-    if m["kind"] == "choice":
-        codes = m["fmu_choices"]
-        return dict(typ="Integer", causality="parameter", variability="fixed", lo=0,
-                    hi=len(codes) - 1, start=codes.index(default),
-                    description=f"{m['fmu_doc']}: {_listing(codes)}", codes=codes)
-    if m["kind"] == "bool":
-        return dict(typ="Boolean", causality="parameter", variability="fixed",
-                    start=bool(default), description=m["fmu_doc"])
-    return dict(typ="Real", causality="parameter", variability="fixed", unit=m["unit"],
-                display_unit=m["display_unit"], lo=0.0 if m["none"] else m["min"],
-                hi=m["max"], start=0.0 if default is None else float(default),
-                description=m["fmu_doc"])
-
-
-def choices(spec: list[dict]) -> dict[str, tuple[str, tuple[str, ...]]]:
-    """The integer-coded parameters of ``spec`` (`interface`): FMU name -> (what it sets,
-    the choices in code order)."""
-    return {v["name"]: (v["field"], v["codes"]) for v in spec if v["codes"]}
-
+    """Every FMU variable in value-reference order (`fmu_interface.interface`), for the
+    bundled package ``gp`` (default: this FMU's, else the installed one)."""
+    return _declared.interface(_import_gearpair(None) if gp is None else gp)
 
 def _combination_error(effects_mod, values: dict) -> str | None:
     """The first combination the model refuses (`gearpair.effects.RULES`), said in the FMU's
@@ -292,43 +75,6 @@ def _combination_error(effects_mod, values: dict) -> str | None:
         if rule.refuses(values):
             return rule.message(values, effects_mod.say_fmu)
     return None
-
-
-class _StateUnpickler(pickle.Unpickler):
-    """Unpickler for serialized FMU states: plain data, numpy arrays and gearpair classes."""
-
-    _ALLOWED = {
-        ("builtins", "set"), ("builtins", "frozenset"), ("builtins", "complex"),
-        ("builtins", "slice"), ("builtins", "range"), ("builtins", "bytearray"),
-        ("collections", "OrderedDict"),
-        ("numpy", "dtype"), ("numpy", "ndarray"),
-        ("numpy._core.numeric", "_frombuffer"), ("numpy.core.numeric", "_frombuffer"),
-        ("numpy._core.multiarray", "_reconstruct"), ("numpy.core.multiarray", "_reconstruct"),
-        ("numpy._core.multiarray", "scalar"), ("numpy.core.multiarray", "scalar"),
-    }
-
-    def __init__(self, file, package: str) -> None:
-        super().__init__(file)
-        self._package = package  # name of the gearpair package the slave runs
-
-    def find_class(self, module: str, name: str):
-        if (module, name) in self._ALLOWED:
-            return super().find_class(module, name)
-        top, dot, rest = module.partition(".")
-        if top in ("gearpair", BUNDLE):  # either import name: the package this slave runs
-            module = self._package + dot + rest
-        if module == "numpy.dtypes" or module.partition(".")[0] == self._package:
-            obj = super().find_class(module, name)
-            if isinstance(obj, type):  # classes only, never functions
-                return obj
-        raise pickle.UnpicklingError(f"FMU state refers to {module}.{name}, which is not allowed")
-
-
-def _loads_state(data: bytes, package: str = "gearpair") -> dict:
-    state = _StateUnpickler(io.BytesIO(data), package).load()
-    if not isinstance(state, dict) or state.get("format") != STATE_FORMAT:
-        raise ValueError("not a GearPair FMU state")
-    return state
 
 
 class GearPair(Fmi2Slave):

@@ -1,6 +1,7 @@
 """Contact events that must not be missed (issue 38): re-contact microseconds after a
 separation, back-flank impact and drive-flank tension after a torque reversal, zero
-damping; the guard after every step; unbounded responses reported; a seeded random search.
+damping; the guard after every step, which locates a missed event and redoes the step;
+unbounded responses reported; a seeded random search.
 
 Every completed run is checked at every output sample: the contact state agrees with the
 geometry (`assert_state_matches_geometry`) and the DTE stays within its bound
@@ -157,6 +158,88 @@ def test_guard_stops_a_state_past_the_bound_in_both_engines(engine):
     e.set_state(st)
     with pytest.raises(RunFailure, match="unbounded response: at t = .* on the drive flanks"):
         e.advance(1e-4, 10000.0, 100 * RPM)
+
+
+# -- locate and redo: a missed event is found and the step redone, not the run stopped -------
+# A pair at rest with the flanks just touching (zero torque: the DTE and every rate exactly
+# 0), then a negative torque: the drive flank goes into tension at once. The start rule leaves
+# a flank function at zero and at rest as it is (`events.start_flanks`: marking it would let
+# rounding noise chatter), so the scan sees no fall (a fall starts above zero) and the guard
+# finds the flank in tension at the step's end. Before locate-and-redo both engines stopped
+# there: "missed contact event: at t = 3.3e-05 s the teeth are on the drive flanks with DTE =
+# -3.4e-07 m". Now the engine locates the event in that step and redoes the rest apart.
+REDO_PATHS = {  # the fast engine's ways through a step: effects, FastOptions
+    "dop853": (Effects(friction="off"), {}),
+    "dop853 one sample per step": (Effects(friction="off"), {"sample_spacing": 1e-3}),
+    "dop853 fine samples": (Effects(friction="off"), {"sample_spacing": 1e-7}),
+    "dp5": (Effects(friction="off"), {"method": "dp5"}),
+    "stick-slip": (Effects(), {}),
+    "exact propagator": (Effects(friction="off", stiffness="rectangular"), {}),
+    "rectangular by Runge-Kutta": (Effects(friction="off", stiffness="rectangular"),
+                                   {"exact_lti": False}),
+}
+
+
+def _touching_at_rest(engine: str, effects: Effects, **options):
+    from gearpair import make_engine
+
+    e = make_engine(GearParams(), effects, engine, **options)
+    e.reset(0.0, 0.0, 100 * RPM, static=True)
+    y = np.asarray(e.get_state()["y"], dtype=float)
+    # the premise: a flank function at zero and at rest, which the start rule leaves alone
+    assert e.outputs().dte == 0.0 and not np.any(y[6:12])
+    return e
+
+
+@pytest.mark.parametrize("path", REDO_PATHS)
+def test_fast_engine_locates_a_missed_event_and_redoes_the_step(path):
+    """The event is located inside the step by the event search: with t_tol = 1e-9 s its
+    instant lies in (0, 1e-9] s (a switch at the step's start, as the start rule makes,
+    would be at exactly 0, and a stop raises). The forces the scan saw past it, in tension,
+    are dropped: the least mesh force stays 0."""
+    fx, opts = REDO_PATHS[path]
+    e = _touching_at_rest("fast", fx, t_tol=1e-9, **opts)
+    s = e.advance(1e-3, -1000.0, 100 * RPM)
+    t_parted = (1.0 - s.separation_fraction) * 1e-3
+    assert 0.0 < t_parted <= 1e-9 * (1.0 + 1e-6)
+    assert s.n_events == 1
+    assert s.mesh_force_min == 0.0 and s.mesh_force_max == 0.0
+    o = e.outputs()
+    assert o.contact_state == CONTACT_SEPARATED and o.dte < -1e-4
+
+
+def test_reference_engine_locates_a_missed_event_and_redoes_the_step(monkeypatch):
+    """The same in the reference engine (`ReferenceEngine._missed` finds the function, the
+    event search places it at the step's start: no point after it is above zero)."""
+    from gearpair.reference import ReferenceEngine
+
+    found = []
+    missed = ReferenceEngine._missed
+
+    def spy(self, *args):
+        m = missed(self, *args)
+        found.append(m.size)
+        return m
+
+    monkeypatch.setattr(ReferenceEngine, "_missed", spy)
+    e = _touching_at_rest("reference", Effects(friction="off"))
+    s = e.advance(1e-3, -1000.0, 100 * RPM)
+    assert found[0] == 1 and sum(found) == 1
+    assert s.separation_fraction == 1.0 and s.n_events == 1 and s.mesh_force_min == 0.0
+    assert e.outputs().contact_state == CONTACT_SEPARATED
+
+
+def test_redone_reversal_from_rest_reaches_the_back_flank_in_both_engines():
+    """A run that holds zero torque, then reverses it (backlash 1e-5 m): the missed event is
+    redone, the gears cross the backlash and settle on the back flanks; both engines give
+    the same ratios (to 1e-9 when written)."""
+    p, fx = GearParams(), Effects(friction="off", backlash=1e-5)
+    kw = dict(t_end=0.01, torque=Step(0.0, -1000.0, 0.002), speed=100 * RPM, dt=1e-4)
+    fast, ref = run(p, fx, **kw), run(p, fx, engine="reference", **kw)
+    assert fast["contact_state"][-1] == CONTACT_BACK
+    for k, v in fast.ratios().items():
+        assert v == pytest.approx(ref.ratios()[k], abs=1e-6), k
+    assert fast.ratios()["back_contact_ratio"] > 0.7
 
 
 def test_run_failure_is_a_value_error_with_a_clear_message():

@@ -460,6 +460,17 @@ class ReferenceEngine(Engine):
                 t_seen.append(tk)
                 f_seen.append(evk.mesh_force)
                 g_prev, t_prev = gk, tk
+            if hit is None:
+                missed = self._missed(ta, g_prev, labels, values, sol, solver.y)
+                if missed.size:
+                    # a flank function below zero at the step's end with no fall seen: it
+                    # was at zero or below at every sample (a positive sample before a value
+                    # at or below zero is a fall), so it stood at zero at the step's start
+                    # (at rest, flanks just touching, driven through zero by a load). Locate
+                    # its fall in [ta, first sample] as one the scan saw, and redo the rest
+                    # of the step from there; the samples are the wrong state's: drop them.
+                    hit = (ta, ts[0], missed)
+                    t_seen, f_seen = [ta], [f_start]
 
             def force(t, sol=sol):
                 return self._mesh_force(t, sol(t), active, mode, t0, s0)
@@ -540,18 +551,33 @@ class ReferenceEngine(Engine):
         self.y[N_Q:2 * N_Q] = qd
         return 1, 0, ev0.mesh_force, ev0.mesh_force, 0.0
 
+    def _missed(self, ta: float, g, labels, values, sol, y) -> np.ndarray:
+        """The flank functions below zero (beyond rounding) at the end of a step with no
+        fall seen (g: their values there, y: the state there; as the fast engine's
+        `events.mark_missed`), which `_integrate_segment` locates and redoes. Raises
+        `RunFailure` when it cannot: one was below zero beyond rounding at the step's start
+        ``ta`` already (the state was wrong before the step; ``sol``: its dense output)."""
+        tol = self._noise(y, 0)
+        missed = np.array([i for i, (kind, _j) in enumerate(labels)
+                           if kind != "pair" and g[i] < -tol], dtype=int)
+        if missed.size:
+            y0 = sol(ta)
+            g0, ev0 = values(ta, y0)
+            if np.any(g0[missed] < -self._noise(y0, 0)):
+                cs = 2 if self.mode.back else 1 if self.mode.separated else 0
+                b0, b1 = self._dte_bound
+                raise RunFailure(run_failure_message("missed", ta, cs, ev0.delta,
+                                                     b0 + b1 * abs(self.torque)))
+        return missed
+
     def _guard(self, t: float, g, labels, ev, y) -> None:
         """The check after every accepted step (as the fast engine's `events.flank_guard`):
-        no flank function below zero without a fall seen, and |DTE| within its bound
-        (`Model.dte_bound`), at the step's end (time t, state y, evaluation ev); raises
-        `RunFailure` otherwise."""
+        |DTE| within its bound (`Model.dte_bound`) at the step's end (time t, state y,
+        evaluation ev); raises `RunFailure` otherwise. (A flank function below zero with no
+        fall seen is located and redone before it: `_missed`.)"""
         cs = 2 if self.mode.back else 1 if self.mode.separated else 0
         b0, b1 = self._dte_bound
         bound = b0 + b1 * abs(self.torque)
-        tol = self._noise(y, 0)
-        for i, (kind, _j) in enumerate(labels):
-            if kind != "pair" and g[i] < -tol:
-                raise RunFailure(run_failure_message("missed", t, cs, ev.delta, bound))
         back = math.isfinite(self.model.backlash)
         if not ev.delta <= bound or (back and not ev.delta >= -self.model.backlash - bound):
             raise RunFailure(run_failure_message("unbounded", t, cs, ev.delta, bound))

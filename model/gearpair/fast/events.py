@@ -241,6 +241,52 @@ def flank_guard(md, wk, pc, t, y):
     return status
 
 
+@jit
+def mark_missed(md, wk, pc, g0, tol, tol0):
+    """Locate and redo (issue 38), the common part: `flank_guard` found flank functions
+    below zero (beyond rounding ``tol``) at the end of an accepted step with no fall seen.
+    Such a function was at zero or below, never positive, at every sample of the step (a
+    positive sample before a value at or below zero is a fall), so it stood at zero at the
+    step's start: a state at rest with the flanks just touching, which `start_flanks` leaves
+    as it is, driven through zero by a load. Its event lies in the step.
+
+    Each one's start in ``wk.gprev`` becomes `engine.G_START` (a zero counted as positive,
+    as `start_flanks` does for one that rises), so that the caller locates its fall as one
+    the scan saw and switches there; the rest of the step is then integrated again in the
+    new state. The failure the guard recorded is cleared.
+
+    Returns False when it cannot: the failure is not a missed event (the DTE bound), or a
+    function was below zero beyond rounding (``tol0``) at the step's start already (``g0``:
+    the values there; the state was wrong before the step, nothing in it to locate).
+    """
+    summ, g = wk.summary, wk.g
+    if summ[O_STATUS] != STATUS_MISSED:
+        return False
+    for e in range(n_sep_events(md, pc.cs)):
+        if g[e] < 0.0 and g[e] < -tol:
+            if g0[e] < -tol0:
+                return False
+            wk.gprev[e] = G_START
+    for i in (O_STATUS, O_TFAIL, O_DFAIL, O_CFAIL, O_BFAIL):
+        summ[i] = 0.0
+    return True
+
+
+@jit
+def missed_event(md, wk, pc, hs, sp):
+    """`mark_missed` for the accepted Runge-Kutta step ``sp``; builds its continuous
+    extension, on which the caller locates the fall over the whole step
+    (`locate_and_switch`). Returns the extension's rows, 0 when it cannot."""
+    if wk.summary[O_STATUS] != STATUS_MISSED:
+        return 0
+    tol = dte_noise(wk.ynew, 0)
+    nf = extend(md, wk, pc, hs, sp)
+    events_at(md, wk, pc, hs, sp.t, hs.y, wk.ynew)  # the values at the step's start
+    if not mark_missed(md, wk, pc, wk.ynew, tol, dte_noise(hs.y, 0)):
+        return 0
+    return nf
+
+
 @jit_hot
 def illinois_point(a, ga, b, gb):
     """Next point of the Illinois (modified regula falsi) search on [a, b], g(a) > 0 >= g(b).

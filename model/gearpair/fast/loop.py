@@ -32,6 +32,7 @@ from .events import (
     events_at,
     flank_guard,
     locate_and_switch,
+    missed_event,
     record_force,
     scan_step,
     start_flanks,
@@ -187,7 +188,8 @@ def piece_at(hs, nact):
 def piece(md, wk, hs, nact, tb):
     """Integrate one contact state from clock[T_T] towards tb by Runge-Kutta steps; stop at
     the first switch. Returns 1 after a switch, 0 on reaching tb, -1 on a step-size failure,
-    -2 when `flank_guard` stops it (its status is in the summary).
+    -2 when `flank_guard` stops it (its status is in the summary): a missed event it finds
+    is located and switched instead (`events.missed_event`), unless that cannot be done.
     """
     st = hs.clock
     pc = piece_at(hs, nact)
@@ -203,13 +205,20 @@ def piece(md, wk, hs, nact, tb):
         wk.summary[O_NSTEPS] += 1.0
         st[T_H] = h
         ends = step_ends(md, wk, pc, hs, sp, d0)
+        fmax, fmin = wk.summary[O_FMAX], wk.summary[O_FMIN]
         hit, nf, th_prev, th_hit = scan_step(md, wk, pc, hs, sp)
+        if not hit and flank_guard(md, wk, pc, sp.tn, wk.ynew) != STATUS_OK:
+            # a missed event: locate it in this step and redo the rest from there; the
+            # scan recorded forces of the wrong state, past the event: drop them
+            nf = missed_event(md, wk, pc, hs, sp)
+            if nf == 0:
+                return -2
+            wk.summary[O_FMAX], wk.summary[O_FMIN] = fmax, fmin
+            hit, th_prev, th_hit = True, 0.0, 1.0
         if hit:
             locate_and_switch(md, wk, pc, hs, sp, nf, th_prev, th_hit)
             step_extremes(md, wk, pc, hs, sp, nf, ends, (st[T_T] - sp.t) / sp.hh)
             return 1
-        if flank_guard(md, wk, pc, sp.tn, wk.ynew) != STATUS_OK:
-            return -2
         step_extremes(md, wk, pc, hs, sp, nf, ends, 1.0)
         d0 = np.nan if sp.at_knot else ends[3]
         t, t_knot = accept_step(md, wk, pc, hs, sp, h, t_knot, tb)

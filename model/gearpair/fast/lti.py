@@ -17,11 +17,13 @@ from ..jitcache import jit, jit_hot
 from .contact import dte_of, flank_compression, n_events, pair_k, pair_xi, rhs, solve_small
 from .detlinalg import balance_n
 from .events import (
+    dte_noise,
     events_at,
     falls,
     flank_guard,
     illinois,
     illinois_point,
+    mark_missed,
     record_force,
     start_flanks,
 )
@@ -504,7 +506,8 @@ def lti_substep(md, wk, pc, hs, lp, ks, t, tb):
 @jit_hot
 def lti_march(md, wk, pc, hs, lp, tb):
     """The sub-steps of a piece, each scanned for falls at its end; returns 1 after a
-    switch, 0 on reaching tb, -2 when `flank_guard` stops it."""
+    switch, 0 on reaching tb, -2 when `flank_guard` stops it (a missed event it finds is
+    located and switched instead, `events.mark_missed`, unless that cannot be done)."""
     z, zn = wk.lti_vecs[0], wk.lti_vecs[1]
     ng = n_events(md, pc.nact, pc.cs)
     t = pc.t0
@@ -520,14 +523,19 @@ def lti_march(md, wk, pc, hs, lp, tb):
         else:
             z_to_y(zn, wk.ytmp)
             fm = events_at(md, wk, pc, hs, tn, wk.ytmp, wk.g)
-            if falls(wk, ng):
+            hit = falls(wk, ng)
+            if not hit and flank_guard(md, wk, pc, tn, wk.ytmp) != STATUS_OK:
+                # a missed event: its start (gprev) marked, located as a fall
+                if not mark_missed(md, wk, pc, wk.gprev, dte_noise(wk.ytmp, 0),
+                                   dte_noise(z, 0)):
+                    return -2
+                hit = True
+            if hit:
                 lti_switch(md, wk, pc, hs, lp, t, tn, jumped)
                 if not jumped:  # zn: the state at the switch
                     stretch_extremes(wk.summary, ends, exact_terms(
                         md, wk.lti_mats[lp.slot], zn, lp.km, pc.cs), hs.clock[T_T] - t)
                 return 1
-            if flank_guard(md, wk, pc, tn, wk.ytmp) != STATUS_OK:
-                return -2
             record_force(wk.summary, fm)
             end_terms = evaluated_terms(wk, pc.cs)
             if not jumped:  # a jump is quiet: within rtol of the static force

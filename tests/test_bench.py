@@ -326,7 +326,7 @@ def test_plain_rows_are_the_best_of_rounds_that_run_every_row_once(monkeypatch):
 
     def fake_run(regime, method, rtol, t_end, dt):
         calls.append(rtol)
-        if rtol == 1e-9 and len(calls) == 5:
+        if rtol == 1e-9 and calls.count(1e-9) == 2:
             raise BudgetExceeded("over")  # a later round over budget: the first run stands
         if rtol == 1e-5:
             raise ArithmeticError("stall")
@@ -334,16 +334,39 @@ def test_plain_rows_are_the_best_of_rounds_that_run_every_row_once(monkeypatch):
         return bench.Timing(w, w / 2), {k: ref[k] for k in ("time", "dte", "mesh_force")}
 
     monkeypatch.setattr(plain, "plain_run", fake_run)
+    monkeypatch.setattr(plain, "retime_fast", lambda rows: calls.append(("fast", len(rows))))
     s = replace(bench.QUICK, repeats=3, windows=(("stick_slip", 0.002),), horizon=0.004,
                 plain_rtols=(("DOP853", (1e-6, 1e-5, 1e-9)),), check_horizon=0)
-    rows, checks = plain.plain_rows(s, {"stick_slip": ref})
-    # interleaved: every row once per round; a row that failed in round 1 is not run again
-    assert calls == [1e-6, 1e-5, 1e-9, 1e-6, 1e-9, 1e-6, 1e-9]
+    rows, checks = plain.plain_rows(s, {"stick_slip": ref}, fast_rows=[{}])
+    # interleaved: every row once per round, each later round starting with the fast core's
+    # rows; a row that failed in round 1 is not run again
+    assert calls == [1e-6, 1e-5, 1e-9, ("fast", 1), 1e-6, 1e-9, ("fast", 1), 1e-6, 1e-9]
     by = {r["rtol"]: r for r in rows}
     assert by[1e-6]["wall_s"] == 1.0 and by[1e-6]["cpu_s"] == 0.5  # best of 3.0, 9.0, 1.0
     assert by[1e-9]["wall_s"] == 2.0  # 2.0, then over budget, then 5.0
     assert by[1e-5]["error"] == "ArithmeticError: stall" and np.isnan(by[1e-5]["wall_s"])
     assert by[1e-6]["err_dte"] == 0.0 and checks == []
+
+
+def test_retiming_the_fast_rows_keeps_the_shorter_time_per_clock(monkeypatch):
+    from gearpair.bench import work_precision as wp
+
+    seen = []
+
+    def fake_engine_run(regime, engine, t_end, dt, repeats=1, **options):
+        seen.append((regime, engine, t_end, dt, repeats, options))
+        return bench.Timing(0.004, 0.006), {}
+
+    monkeypatch.setattr(wp, "engine_run", fake_engine_run)
+    fast = {**_wp_row("sliding", "fast dp5", 1e-7, 0.05, 1e-8), "wall_s": 0.005,
+            "cpu_s": 0.005, "options": {"rtol": 1e-7, "method": "dp5"}}
+    scipy = _wp_row("sliding", "DOP853", 1e-6, 80.0, 1e-7)  # no options: not the fast core
+    wp.retime_fast([fast, scipy])
+    assert seen == [("sliding", "fast", 0.1, 1e-4, 1, {"rtol": 1e-7, "method": "dp5"})]
+    assert (fast["wall_s"], fast["cpu_s"]) == (0.004, 0.005)
+    assert fast["wall_per_sim_s"] == pytest.approx(0.04)
+    assert fast["cpu_per_sim_s"] == pytest.approx(0.05)
+    assert scipy["wall_per_sim_s"] == 80.0
 
 
 def test_a_short_run_says_its_ratios_do_not_stand_for_the_full_run(quick):

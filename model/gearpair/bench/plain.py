@@ -5,7 +5,7 @@ from __future__ import annotations
 from . import plain_scipy
 from .runs import Timing, _errors, clock, relative_error, time_limit
 from .settings import FRICTION_OF, PLAIN_PREFIX, STIFFNESS_OF, Progress, Settings, _quiet
-from .work_precision import _FAILED, _NO_ERRORS, _row
+from .work_precision import _FAILED, _NO_ERRORS, _row, retime_fast
 
 
 def plain_run(regime: str, method: str, rtol: float, t_end: float,
@@ -19,8 +19,8 @@ def plain_run(regime: str, method: str, rtol: float, t_end: float,
     return clock() - t0, {k: got[k] for k in ("time", "dte", "mesh_force")}
 
 
-def plain_rows(s: Settings, refs: dict, progress: Progress = _quiet
-               ) -> tuple[list[dict], list[dict]]:
+def plain_rows(s: Settings, refs: dict, progress: Progress = _quiet,
+               fast_rows: list[dict] | None = None) -> tuple[list[dict], list[dict]]:
     """Work-precision rows (methods ``plain <scipy method>``, over ``s.horizon``) and the
     cross-check of plain DOP853 at ``ref_rtol`` against the reference over the same
     ``s.horizon``, every regime of the work-precision tables.
@@ -28,13 +28,18 @@ def plain_rows(s: Settings, refs: dict, progress: Progress = _quiet
     Each row is the best of ``s.repeats`` runs, as the fast core's, taken in rounds that run
     every row once: a row's runs lie tens of seconds apart, so a stretch of load on a
     shared machine costs one of them, not all (the runs are deterministic: every round gives
-    the same signals and errors). A run that fails in the first round is a failed row."""
+    the same signals and errors). A run that fails in the first round is a failed row.
+    ``fast_rows``: the fast core's work-precision rows, timed once already; each later round
+    starts by timing them again (`work_precision.retime_fast`), so they too are the best of
+    ``s.repeats`` runs spread over the same minutes."""
     jobs = [(regime, method, rtol) for regime in s.wp_regimes
             for method, rtols in s.plain_rtols for rtol in rtols]
     best: dict = {}
     failed: dict = {}
     rounds = max(1, s.repeats)
     for k in range(rounds):
+        if k and fast_rows:
+            retime_fast(fast_rows)
         for job in jobs:
             if job in failed:
                 continue
@@ -58,7 +63,8 @@ def plain_rows(s: Settings, refs: dict, progress: Progress = _quiet
                      f"{took.wall / s.horizon:.2f} s per simulated s (round 1 of {rounds}), "
                      f"DTE error {err:.1e}")
         if rounds > 1:
-            progress(f"plain scipy: round {k + 1} of {rounds} done")
+            progress(f"plain scipy: round {k + 1} of {rounds} done" + (
+                " (the fast core's rows timed again before it)" if k and fast_rows else ""))
     rows, checks = [], []
     for job in jobs:
         regime, method, rtol = job

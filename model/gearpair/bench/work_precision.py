@@ -108,11 +108,13 @@ def _engine_row(regime: str, method: str, rtol: float, horizon: float, s: Settin
     """One work-precision row of an engine run; a failed run is a row with ``error``.
 
     ``step``: communication step (default the common output grid ``s.dt``); the fast core
-    stepped at another one is the method ``fast (step h)``.
+    stepped at another one is the method ``fast (step h)``. A fast-core row is timed once
+    here and again by `retime_fast` (its ``options`` say how), in the rounds of the plain
+    scipy rows.
     """
     step = s.dt if step is None else step
     if method.split()[0] == "fast":
-        engine, opts, repeats = "fast", {"rtol": rtol}, s.repeats
+        engine, opts, repeats = "fast", {"rtol": rtol}, 1
         if method != "fast":  # another Runge-Kutta pair: "fast dp5"
             opts["method"] = method.split()[1]
         if step != s.dt:
@@ -127,8 +129,26 @@ def _engine_row(regime: str, method: str, rtol: float, horizon: float, s: Settin
     except (RuntimeError, ArithmeticError, ValueError) as exc:
         return _row(regime, method, f"rtol {rtol:g}", rtol, step, horizon, _FAILED,
                     _NO_ERRORS, f"{type(exc).__name__}: {exc}")
-    return _row(regime, method, f"rtol {rtol:g}", rtol, step, horizon, took,
-                _errors(sig, ref, s.window(regime)))
+    row = _row(regime, method, f"rtol {rtol:g}", rtol, step, horizon, took,
+               _errors(sig, ref, s.window(regime)))
+    if engine == "fast":
+        row["options"] = opts
+    return row
+
+
+def retime_fast(rows: list[dict]) -> None:
+    """Run every fast-core row of ``rows`` once more and keep, per clock, the shorter time
+    (the runs are deterministic: the signals and errors stay). `plain.plain_rows` calls it
+    before each of its rounds after the first, so both sides of the speed claim are the
+    best of as many runs spread over the same minutes of a shared machine."""
+    for r in rows:
+        if "options" not in r or r["error"]:
+            continue
+        took, _ = engine_run(r["regime"], "fast", r["horizon_s"], r["step"], 1,
+                             **r["options"])
+        r["wall_s"], r["cpu_s"] = min(r["wall_s"], took.wall), min(r["cpu_s"], took.cpu)
+        r["wall_per_sim_s"] = r["wall_s"] / r["horizon_s"]
+        r["cpu_per_sim_s"] = r["cpu_s"] / r["horizon_s"]
 
 
 def equal_accuracy(rows: list[dict], target: float = TARGET_ERROR) -> list[dict]:

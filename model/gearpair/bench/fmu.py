@@ -171,14 +171,15 @@ def build_noop(gearpair_fmu: str | Path, outdir: str | Path) -> Path:
     """Build ``<outdir>/GearPairNoop.fmu``: the slave that does nothing
     (``gearpair/bench/GearPairNoop.py``) with the variables of ``gearpair_fmu`` (its
     ``interface.json``: every variable of that modelDescription, in value-reference order,
-    so that both have the same value references), built with pythonfmu and then run on
-    GearPair's own binary: its C layer and pythonfmu's library under it are copied from
-    ``gearpair_fmu``, with GearPair's GUID, which the layer checks. The floor is then the
-    cost of the same binary (otherwise the layer's cheaper calls make GearPair - no-op
-    negative), and the no-op needs neither the repository's build script nor a compiler.
+    so that both have the same value references), built with pythonfmu for its
+    modelDescription (with GearPair's GUID); its binary is the generic FMI layer of
+    ``gearpair_fmu``'s builder over a model that does nothing (`_noop_binary`: the builder
+    its build record names, and a C compiler). The floor is then the cost of the same layer
+    with no engine behind it.
 
-    Raises RuntimeError when ``gearpair_fmu`` has no C layer or its value references are not
-    0, 1, 2, ... in the order of its modelDescription (the no-op could not match them)."""
+    Raises RuntimeError when ``gearpair_fmu`` has no build record naming its builder or its
+    value references are not 0, 1, 2, ... in the order of its modelDescription (the no-op
+    could not match them)."""
     import shutil
 
     import fmpy
@@ -199,35 +200,18 @@ def build_noop(gearpair_fmu: str | Path, outdir: str | Path) -> Path:
     src.mkdir(parents=True, exist_ok=True)
     shutil.copy(NOOP_SCRIPT, src / NOOP_SCRIPT.name)
     (src / "interface.json").write_text(json.dumps(iface, indent=1))
-    # the step block's layout: the no-op hands the C layer a block and a step that does
-    # nothing, so that its floor is the C layer's own cost (GearPairNoop.py)
-    shutil.copy(Path(__file__).resolve().parents[1] / "stepblock.py", src / "stepblock.py")
     noop = Path(FmuBuilder.build_FMU(src / NOOP_SCRIPT.name, dest=outdir / "GearPairNoop.fmu",
-                                     project_files=[src / "interface.json",
-                                                    src / "stepblock.py"]))
+                                     project_files=[src / "interface.json"]))
     _run_on_the_binary_of(noop, gearpair_fmu, md)
     return noop
 
 
-_LAYER_RESOURCES = ("resources/python.txt", "resources/gearpair_python.py")  # the C layer's
-
-
 def _run_on_the_binary_of(noop: Path, gearpair_fmu: str | Path, md) -> None:
-    """Make ``noop``'s Linux binary the C layer of ``gearpair_fmu`` (and the library it loads
-    beside it, by the name the layer was built with), with that FMU's GUID and the layer's
-    resources; binaries for other platforms are left out."""
+    """Make ``noop``'s Linux binary the generic FMI layer over a model doing nothing
+    (`_noop_binary`), with ``gearpair_fmu``'s GUID; binaries for other platforms are left
+    out."""
     import fmpy
 
-    model = md.coSimulation.modelIdentifier
-    with zipfile.ZipFile(gearpair_fmu) as z:
-        names = set(z.namelist())
-        layer = f"binaries/linux64/{model}.so"
-        inner = [n for n in names if n.startswith("binaries/linux64/")
-                 and n.endswith("_pythonfmu.so")]
-        if layer not in names or len(inner) != 1:
-            raise RuntimeError(f"{gearpair_fmu} has no C layer over pythonfmu's library "
-                               "(binaries/linux64): build it with build_fmu.py")
-        copied = {n: z.read(n) for n in (layer, inner[0], *_LAYER_RESOURCES) if n in names}
     nmd = fmpy.read_model_description(str(noop))
     mine = {v.name: (v.valueReference, v.type) for v in nmd.modelVariables}
     theirs = {v.name: (v.valueReference, v.type) for v in md.modelVariables}
@@ -241,7 +225,6 @@ def _run_on_the_binary_of(noop: Path, gearpair_fmu: str | Path, md) -> None:
     if n != 1:
         raise RuntimeError("the no-op slave's modelDescription.xml has no guid")
     entries["modelDescription.xml"] = xml.encode("utf-8")
-    copied.pop(layer)
     entries[f"binaries/linux64/{noop_model}.so"] = _noop_binary(gearpair_fmu, xml)
     tmp = noop.with_suffix(".tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:

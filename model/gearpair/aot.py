@@ -18,6 +18,12 @@ C wrapper, which would need the Python C API and numba's helper library, are dro
 code. What remains needs only ``fmod`` and ``memset`` from the C library (`LIBC`);
 `undefined_symbols` checks an object.
 
+The same linked module, emitted for `WIN64_TRIPLE` (``win64=True``), is the engine of the
+FMU's Windows binary: LLVM's C calling convention is the target's (Win64 there), the data
+layout the target's, and the COFF object needs the same two functions (mingw-w64 links
+them statically). numba compiles once for both (`build_objects`); the host's object keeps
+its bytes.
+
 The header (`engine_header`) is generated from the same declarations the compiled code
 reads: the set-up table, the hand-off table and the shapes of its arrays for each number of
 tracked tooth pairs, the step block's slots, the status codes and messages.
@@ -40,6 +46,14 @@ ENTRIES = (("gearpair_setup", "fast.setup", "setup_entry"),
            ("gearpair_step", "fast.native", "step_entry"),
            ("gearpair_step_lti", "fast.native", "step_lti_entry"))
 LIBC = ("fmod", "memset")  # what the object may need from outside
+#: The Windows x86-64 target of the win64 object (mingw-w64's: COFF, the Win64 calling
+#: convention), the CPU it is made for there and its file name.
+WIN64_TRIPLE = "x86_64-w64-windows-gnu"
+WIN64_CPU = "x86-64-v2"
+WIN64_OBJECT = "gearpair_engine_win64.o"
+#: what the win64 object may need besides `LIBC`: LLVM's stack probe for frames over 4 KB
+#: on Windows, which mingw-w64's libgcc links statically into the DLL
+WIN64_LIBGCC = ("___chkstk_ms",)
 FAILED = -1  # what an entry returns when numba's function reports an exception
 N_PAIRS_MAX = 8  # tracked tooth pairs the header has shapes for (contact ratio below 8)
 INTERNALS = ("Dispatcher.overloads", "Dispatcher._cache", "numba.core.caching.NullCache",
@@ -79,12 +93,11 @@ def _module_of(package: str, name: str, entry: str):
     return cres.fndesc.mangled_name, mod
 
 
-def build_object(package: str, cpu: str, triple: str | None = None) -> bytes:
-    """The object file of `ENTRIES` (run in the process that compiles: see `write_engine`)."""
+def _linked_module(package: str):
+    """One LLVM module of `ENTRIES` with their C wrappers, every other symbol internal, for
+    numba's target (the host's triple)."""
     import llvmlite.binding as llvm
 
-    llvm.initialize_native_target()
-    llvm.initialize_native_asmprinter()
     main = None
     for cname, module, entry in ENTRIES:
         inner, mod = _module_of(package, module, entry)
@@ -101,10 +114,22 @@ def build_object(package: str, cpu: str, triple: str | None = None) -> bytes:
             main = mod
         else:
             main.link_in(mod)
+    return main
+
+
+def _emit(main, cpu: str, triple: str | None = None) -> bytes:
+    """The object file of the linked module ``main`` (changed: dead code dropped) for
+    ``triple`` (None: numba's, the host's). For another triple the module's data layout
+    becomes the target's; the wrappers' and numba's functions, declared with LLVM's C
+    calling convention, take the target's (Win64 for `WIN64_TRIPLE`)."""
+    import llvmlite.binding as llvm
+
     if triple:
         main.triple = triple
     tm = llvm.Target.from_triple(main.triple).create_target_machine(
         cpu=cpu, features="", reloc="pic", codemodel="default", opt=3)
+    if triple:
+        main.data_layout = str(tm.target_data)
     pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=0))
     mpm = llvm.create_new_module_pass_manager()
     mpm.add_global_dead_code_eliminate_pass()
@@ -114,26 +139,60 @@ def build_object(package: str, cpu: str, triple: str | None = None) -> bytes:
     return tm.emit_object(main)
 
 
+def build_object(package: str, cpu: str, triple: str | None = None) -> bytes:
+    """The object file of `ENTRIES` for ``triple`` (None: the host's; run in the process
+    that compiles: see `write_engine`)."""
+    import llvmlite.binding as llvm
+
+    llvm.initialize_native_target()
+    llvm.initialize_native_asmprinter()
+    return _emit(_linked_module(package), cpu, triple)
+
+
+def build_objects(package: str, cpu: str, triples) -> list[bytes]:
+    """The object files of `ENTRIES` for each of ``triples`` (None: the host's), compiled
+    by numba once: each is emitted from a copy of the one linked module (its bitcode read
+    back), so the host's object has the same bytes as `build_object`'s."""
+    import llvmlite.binding as llvm
+
+    llvm.initialize_native_target()
+    llvm.initialize_native_asmprinter()
+    main = _linked_module(package)
+    code = main.as_bitcode()
+    return [_emit(llvm.parse_bitcode(code), cpu, t) for t in triples]
+
+
 _CHILD = r"""
 import json, sys
-package, cpu, out, header = sys.argv[1:5]
+package, cpu, out, header, win64 = sys.argv[1:6]
 import importlib
 aot = importlib.import_module(package + ".aot")
+made = {"ok": True}
+if win64:
+    objects = aot.build_objects(package, cpu, [None, aot.WIN64_TRIPLE])
+else:
+    objects = [aot.build_object(package, cpu)]
 with open(out, "wb") as fh:
-    fh.write(aot.build_object(package, cpu))
+    fh.write(objects[0])
+if win64:
+    with open(win64, "wb") as fh:
+        fh.write(objects[1])
 with open(header, "w") as fh:
     fh.write(aot.engine_header(package))
-print(json.dumps({"ok": True}))
+print(json.dumps(made))
 """
 
 
 def write_engine(folder: str | Path, package: str = "gearpair",
-                 timeout: float = 1800.0, path: str | None = None) -> dict:
+                 timeout: float = 1800.0, path: str | None = None,
+                 win64: bool = False) -> dict:
     """Write ``gearpair_engine.o`` and ``gearpair_engine.h`` into ``folder``, compiled in a
-    child process for the portable CPU (about 40 s). Kept in the user cache under the
-    engine's key, so a second build with unchanged engine sources copies them. ``path``: a
-    folder the child imports ``package`` from first. Returns {"object", "header",
-    "cached"}."""
+    child process for the portable CPU (about 40 s), and with ``win64`` also
+    ``gearpair_engine_win64.o``: the same module emitted for Windows x86-64 (`WIN64_TRIPLE`,
+    a COFF object; only on an x86-64 host). Kept in the user cache under the engine's key,
+    so a second build with unchanged engine sources copies them. ``path``: a folder the
+    child imports ``package`` from first. Returns {"object", "header", "object_win64"
+    (None without ``win64``), "cached"}."""
     import shutil
 
     from .shipped import portable_target, user_cache_dir
@@ -141,6 +200,9 @@ def write_engine(folder: str | Path, package: str = "gearpair",
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     cpu, _ = portable_target()
+    if win64 and cpu != WIN64_CPU:
+        raise RuntimeError(f"a win64 engine object is made on an x86-64 host only (here the "
+                           f"portable CPU is {cpu})")
     key = _key(package)
     base = user_cache_dir()
     import hashlib
@@ -148,10 +210,13 @@ def write_engine(folder: str | Path, package: str = "gearpair",
     own = hashlib.sha1(Path(__file__).read_bytes()).hexdigest()[:8]  # this file shapes it too
     keep = Path(base) / f"aot-{cpu}-{key}-{own}" if base and key else None
     obj, hdr = folder / "gearpair_engine.o", folder / "gearpair_engine.h"
-    if keep is not None and (keep / obj.name).is_file() and (keep / hdr.name).is_file():
-        shutil.copyfile(keep / obj.name, obj)
-        shutil.copyfile(keep / hdr.name, hdr)
-        return {"object": str(obj), "header": str(hdr), "cached": True}
+    win = folder / WIN64_OBJECT if win64 else None
+    wanted = [p for p in (obj, hdr, win) if p is not None]
+    if keep is not None and all((keep / p.name).is_file() for p in wanted):
+        for p in wanted:
+            shutil.copyfile(keep / p.name, p)
+        return {"object": str(obj), "header": str(hdr),
+                "object_win64": str(win) if win else None, "cached": True}
     env = dict(os.environ, NUMBA_CPU_NAME=cpu, NUMBA_CPU_FEATURES="",
                GEARPAIR_COMPILE_NOTICE="")
     if path:
@@ -159,22 +224,25 @@ def write_engine(folder: str | Path, package: str = "gearpair",
     with tempfile.TemporaryDirectory(prefix="gearpair_aot_") as tmp:
         env["NUMBA_CACHE_DIR"] = tmp  # numba's cache of this child: thrown away
         proc = subprocess.run([sys.executable, "-c", _CHILD, package, cpu, str(obj),
-                               str(hdr)], env=env, cwd=tmp, capture_output=True, text=True,
-                              timeout=timeout)
-    if proc.returncode != 0 or not obj.is_file():
+                               str(hdr), str(win) if win else ""], env=env, cwd=tmp,
+                              capture_output=True, text=True, timeout=timeout)
+    if proc.returncode != 0 or not all(p.is_file() for p in wanted):
         raise RuntimeError(f"compiling the engine's object failed (exit {proc.returncode}): "
                            f"{(proc.stderr or proc.stdout)[-2000:]}")
-    bad = sorted(set(undefined_symbols(obj)) - set(LIBC))
-    if bad:
-        raise RuntimeError(f"the engine's object needs {', '.join(bad)} (only {LIBC} allowed)")
+    for p, allowed in ((obj, LIBC), (win, LIBC + WIN64_LIBGCC)):
+        bad = sorted(set(undefined_symbols(p)) - set(allowed)) if p is not None else []
+        if bad:
+            raise RuntimeError(f"the engine's object {p.name} needs {', '.join(bad)} (only "
+                               f"{', '.join(allowed)} allowed)")
     if keep is not None:
         try:
             keep.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(obj, keep / obj.name)
-            shutil.copyfile(hdr, keep / hdr.name)
+            for p in wanted:
+                shutil.copyfile(p, keep / p.name)
         except OSError:
             pass
-    return {"object": str(obj), "header": str(hdr), "cached": False}
+    return {"object": str(obj), "header": str(hdr),
+            "object_win64": str(win) if win else None, "cached": False}
 
 
 def _key(package: str) -> str | None:
@@ -189,12 +257,15 @@ def _key(package: str) -> str | None:
 
 
 def undefined_symbols(path: str | Path) -> list[str]:
-    """The symbols an ELF object file needs from outside (its undefined global symbols)."""
+    """The symbols an object file needs from outside (its undefined global symbols): a
+    64-bit ELF object or an x86-64 COFF object (`WIN64_OBJECT`)."""
     data = Path(path).read_bytes()
     import struct
 
+    if data[:2] == b"\x64\x86":  # COFF, IMAGE_FILE_MACHINE_AMD64
+        return _coff_undefined(data)
     if data[:4] != b"\x7fELF" or data[4] != 2:
-        raise ValueError(f"{path} is not a 64-bit ELF object")
+        raise ValueError(f"{path} is not a 64-bit ELF or x86-64 COFF object")
     shoff, = struct.unpack_from("<Q", data, 0x28)
     shentsize, shnum = struct.unpack_from("<HH", data, 0x3A)
     sections = [struct.unpack_from("<IIQQQQIIQQ", data, shoff + i * shentsize)
@@ -210,6 +281,27 @@ def undefined_symbols(path: str | Path) -> list[str]:
             if shndx == 0 and info >> 4 in (1, 2) and name_off:  # undefined global/weak
                 end = data.index(b"\0", strtab[4] + name_off)
                 out.append(data[strtab[4] + name_off:end].decode())
+    return sorted(out)
+
+
+def _coff_undefined(data: bytes) -> list[str]:
+    """The undefined external symbols of a COFF object (PE/COFF specification, 5.4)."""
+    import struct
+
+    symtab, nsym = struct.unpack_from("<II", data, 8)
+    strings = symtab + 18 * nsym
+    out, k = [], 0
+    while k < nsym:
+        raw, value, section, _, storage, naux = struct.unpack_from("<8sIhHBB", data,
+                                                                   symtab + 18 * k)
+        if section == 0 and value == 0 and storage == 2:  # IMAGE_SYM_CLASS_EXTERNAL
+            if raw[:4] == b"\0\0\0\0":  # a long name: offset into the string table
+                off = strings + struct.unpack_from("<I", raw, 4)[0]
+                name = data[off:data.index(b"\0", off)]
+            else:
+                name = raw.rstrip(b"\0")
+            out.append(name.decode())
+        k += 1 + naux
     return sorted(out)
 
 

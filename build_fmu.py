@@ -13,8 +13,14 @@ the system C compiler and headers generated from the final modelDescription.xml
 (``fmu_src/fmu_config.py``), linked with the fast engine's object file, which numba compiles
 from the same sources as the Python API (`gearpair.aot`): the default engine needs no
 Python. pythonfmu's library ships beside it as ``GearPair_pythonfmu.so`` and runs the Python
-slave for the scipy reference engine only. pythonfmu's win64 binary is left out: the C layer
-is built for Linux x86_64 only (see docs/hosts.md).
+slave for the scipy reference engine only.
+
+``binaries/win64/GearPair.dll`` is the same C layer cross-compiled with mingw-w64
+(``x86_64-w64-mingw32-gcc``), linked with the engine's object emitted for Windows x86-64
+from the same numba module; it loads no Python (``fmu_src/c/no_python.c``: engine = 1 is
+refused with a clear error) and needs only KERNEL32.dll and msvcrt.dll. Without mingw-w64
+(or with ``--no-win64``) the FMU holds ``binaries/linux64`` only and the build says so.
+pythonfmu's own win64 binary is left out (see docs/hosts.md).
 """
 
 from __future__ import annotations
@@ -209,28 +215,44 @@ def _rewrite_zip(fmu: Path, replace: dict[str, bytes], drop=lambda name: False) 
 
 # -- the C layer ----------------------------------------------------------------------------
 def add_c_layer(fmu: Path, spec: list[dict] | None = None, gp=None,
-                progress=lambda msg: None) -> None:
+                progress=lambda msg: None, win64: bool | None = None) -> list[str]:
     """Make the FMU's Linux binary this project's C layer (fmu_src/c): for GearPair (``spec``
     its `GearPair.interface`, ``gp`` the bundled package) the generic FMI layer with
     GearPair's model part, linked with the fast engine's object file (`gearpair.aot`); for
     another pythonfmu FMU (no ``gp``) the generic layer over its Python slave. pythonfmu's
     library moves beside it as ``<modelIdentifier>_pythonfmu.so`` (GearPair: for the
-    reference engine, which alone needs Python). Binaries for other platforms are left out.
-    The resources get ``python.txt`` (this interpreter, which the C layer loads in hosts that
-    are not Python) and ``gearpair_python.py``. Call it on the FMU with its final
-    modelDescription.xml."""
+    reference engine, which alone needs Python). For GearPair also the win64 binary
+    (`compile_win64_layer`) when ``win64`` (None: when `win64_compiler` finds mingw-w64).
+    Other binaries (pythonfmu's) are left out. The resources get ``python.txt`` (this
+    interpreter, which the C layer loads in hosts that are not Python) and
+    ``gearpair_python.py``. Call it on the FMU with its final modelDescription.xml. Returns
+    the platforms the FMU holds binaries for."""
     with zipfile.ZipFile(fmu) as z:
         xml = z.read("modelDescription.xml")
         model = ET.fromstring(xml).find("CoSimulation").get("modelIdentifier")
         pythonfmu_lib = z.read(f"binaries/linux64/{model}.so")
+    win_cc = None
+    if gp is not None and win64 is not False:
+        win_cc = win64_compiler()
+        if win_cc is None and win64:
+            raise RuntimeError(f"a win64 binary needs mingw-w64: {WIN64_MISSING}")
+    replace = {f"resources/{PYTHON_SCRIPT.name}": PYTHON_SCRIPT.read_bytes(),
+               "resources/python.txt": _describe_python().encode()}
     with tempfile.TemporaryDirectory(prefix="gearpair_c_") as tmp:
-        lib = compile_c_layer(xml, spec, gp, Path(tmp), model, progress)
-    _rewrite_zip(fmu, {f"binaries/linux64/{model}.so": lib,
-                       f"binaries/linux64/{model}{INNER_SUFFIX}": pythonfmu_lib,
-                       f"resources/{PYTHON_SCRIPT.name}": PYTHON_SCRIPT.read_bytes(),
-                       "resources/python.txt": _describe_python().encode()},
-                 drop=lambda name: name.startswith("binaries/")
+        lib = compile_c_layer(xml, spec, gp, Path(tmp), model, progress,
+                              win64=win_cc is not None)
+        replace[f"binaries/linux64/{model}.so"] = lib
+        replace[f"binaries/linux64/{model}{INNER_SUFFIX}"] = pythonfmu_lib
+        if win_cc is not None:
+            progress(f"cross-compiling the FMU's win64 binary ({Path(win_cc).name})")
+            replace[f"binaries/win64/{model}.dll"] = compile_win64_layer(Path(tmp), model,
+                                                                         win_cc)
+        elif gp is not None and win64 is None:
+            progress(f"no win64 binary: {WIN64_MISSING}; GearPair.fmu holds binaries/linux64 "
+                     "only")
+    _rewrite_zip(fmu, replace, drop=lambda name: name.startswith("binaries/")
                  and not name.startswith("binaries/linux64/"))
+    return ["linux64"] + (["win64"] if win_cc is not None else [])
 
 
 def c_compiler() -> str:
@@ -244,6 +266,13 @@ def c_compiler() -> str:
 
 
 C_SOURCES = ("fmi2Functions.c", "gearpair_fmu.c", "gearpair_model.c", "python_slave.c")
+# the win64 binary: the same layer with the stand-in that loads no Python (engine = 1 refused)
+WIN64_SOURCES = ("fmi2Functions.c", "gearpair_fmu.c", "gearpair_model.c", "no_python.c")
+WIN64_CC = "x86_64-w64-mingw32-gcc"
+WIN64_MISSING = (f"no mingw-w64 cross compiler ({WIN64_CC}; Debian/Ubuntu: apt-get install "
+                 "gcc-mingw-w64-x86-64)")
+# the DLLs the win64 binary may import: Windows' own (the C runtime msvcrt, or the UCRT)
+WIN64_SYSTEM_DLLS = ("kernel32.dll", "msvcrt.dll", "ucrtbase.dll")
 PYTHON_SOURCES = ("fmi2Functions.c", "python_fmu.c", "python_slave.c")  # another slave
 NOOP_SOURCES = ("fmi2Functions.c", "noop_fmu.c")  # the bench's floor: a model doing nothing
 
@@ -256,10 +285,12 @@ def noop_binary(xml: bytes, workdir: Path) -> bytes:
 
 def compile_c_layer(xml: bytes, spec: list[dict] | None, gp, workdir: Path,
                     model: str = "GearPair", progress=lambda msg: None,
-                    sources: tuple[str, ...] = PYTHON_SOURCES) -> bytes:
+                    sources: tuple[str, ...] = PYTHON_SOURCES, win64: bool = False) -> bytes:
     """The FMU's binary: the generic FMI layer, GearPair's model part and the Python slave
     (fmu_src/c) with the generated headers (`fmu_config`), linked with the engine's object
-    (`gearpair.aot.write_engine`, for a portable CPU; cached by the engine's sources).
+    (`gearpair.aot.write_engine`, for a portable CPU; cached by the engine's sources). With
+    ``win64`` the engine's object for Windows is written into ``workdir`` too, for
+    `compile_win64_layer`, which uses the headers left there.
 
     ``-z nodelete``: a host's dlclose must not unload the code an interpreter started for the
     reference engine, which lives on, still calls into (the slave's logger)."""
@@ -274,7 +305,7 @@ def compile_c_layer(xml: bytes, spec: list[dict] | None, gp, workdir: Path,
                  f"{shipped.portable_target()[0]} CPUs: about 40 s the first time, a moment "
                  "when the user cache holds it for the engine's sources")
         t0 = time.perf_counter()
-        made = aot.write_engine(workdir, path=str(PACKAGE.parent))
+        made = aot.write_engine(workdir, path=str(PACKAGE.parent), win64=win64)
         progress(f"the engine's object {'from the cache' if made['cached'] else 'compiled'} "
                  f"in {time.perf_counter() - t0:.0f} s")
         (workdir / "gearpair_config.h").write_text(fmu_config.gearpair_config_h(spec, gp))
@@ -288,6 +319,80 @@ def compile_c_layer(xml: bytes, spec: list[dict] | None, gp, workdir: Path,
     if r.returncode != 0:
         raise RuntimeError(f"compiling the FMU's C layer failed:\n{' '.join(cmd)}\n{r.stderr}")
     return lib.read_bytes()
+
+
+def win64_compiler() -> str | None:
+    """The mingw-w64 C compiler for the FMU's win64 binary ($GEARPAIR_WIN64_CC, else
+    x86_64-w64-mingw32-gcc on PATH), or None: none there, the host is not x86-64 (the
+    engine's object for Windows is emitted from an x86-64 module), or $GEARPAIR_WIN64_CC
+    is set empty (no win64 binary)."""
+    import platform
+
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return None
+    cand = os.environ.get("GEARPAIR_WIN64_CC", WIN64_CC)
+    return shutil.which(cand) if cand else None
+
+
+def compile_win64_layer(workdir: Path, model: str = "GearPair",
+                        cc: str | None = None) -> bytes:
+    """The FMU's win64 binary: the C layer of `WIN64_SOURCES` cross-compiled with mingw-w64
+    (``cc``, default `win64_compiler`) with the headers `compile_c_layer` wrote into
+    ``workdir`` and linked with the engine's object for Windows there. C99 printf
+    (``__USE_MINGW_ANSI_STDIO``: messages as on Linux), libgcc linked in, no timestamp, no
+    symbol table (``-s``). Checked: it imports only `WIN64_SYSTEM_DLLS`."""
+    aot_obj = workdir / "gearpair_engine_win64.o"
+    cc = cc or win64_compiler()
+    if cc is None:
+        raise RuntimeError(WIN64_MISSING)
+    dll = workdir / f"{model}.dll"
+    cmd = [cc, "-O2", "-std=c11", "-shared", "-Wall", "-Wextra", "-Werror",
+           "-D__USE_MINGW_ANSI_STDIO=1", f"-I{workdir}", f"-I{SHIM_SRC}", "-o", str(dll),
+           *(str(SHIM_SRC / f) for f in WIN64_SOURCES), str(aot_obj),
+           "-static-libgcc", "-Wl,--no-undefined", "-Wl,--no-insert-timestamp", "-s"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"compiling the FMU's win64 binary failed:\n{' '.join(cmd)}\n"
+                           f"{r.stderr}")
+    data = dll.read_bytes()
+    other = [d for d in pe_imports(data) if d.lower() not in WIN64_SYSTEM_DLLS]
+    if other:
+        raise RuntimeError(f"the FMU's win64 binary imports {', '.join(other)}; only "
+                           f"{', '.join(WIN64_SYSTEM_DLLS)} may be needed")
+    return data
+
+
+def pe_imports(data: bytes) -> list[str]:
+    """The DLLs a PE32+ image (a win64 DLL) imports, from its import directory."""
+    import struct
+
+    pe, = struct.unpack_from("<I", data, 0x3C)
+    if data[pe:pe + 4] != b"PE\0\0":
+        raise ValueError("not a PE image")
+    nsec, = struct.unpack_from("<H", data, pe + 6)
+    opt_size, = struct.unpack_from("<H", data, pe + 20)
+    opt = pe + 24
+    if struct.unpack_from("<H", data, opt)[0] != 0x20B:
+        raise ValueError("not a PE32+ (64-bit) image")
+    rva, _ = struct.unpack_from("<II", data, opt + 112 + 8)  # data directory 1: imports
+    sections = [struct.unpack_from("<IIII", data, opt + opt_size + 40 * k + 8)
+                for k in range(nsec)]  # virtual size, address, raw size, raw pointer
+
+    def at(r):
+        for vsize, vaddr, _, raw in sections:
+            if vaddr <= r < vaddr + vsize:
+                return raw + r - vaddr
+        raise ValueError(f"RVA {r:#x} is in no section")
+
+    out, k = [], at(rva) if rva else None
+    while k is not None:
+        name_rva, = struct.unpack_from("<I", data, k + 12)
+        if not name_rva:
+            break
+        off = at(name_rva)
+        out.append(data[off:data.index(b"\0", off)].decode())
+        k += 20
+    return out
 
 
 def _fmu_config():
@@ -366,12 +471,17 @@ communication steps are therefore accurate; the step figures
 <li>Variable communication step sizes, <code>fmi2GetFMUstate</code>/<code>fmi2SetFMUstate</code>
 and state serialization are supported; a serialized state can be restored into a fresh
 instance of this FMU.</li>
-<li>The FMU runs Python code (pythonfmu). It needs Python 3 with numpy, scipy, pythonfmu
-and numba (<code>resources/requirements.txt</code>). Python hosts (fmpy, libcosimpy,
-ecospy) use their own interpreter; other hosts (C/C++ masters) need nothing set: the FMU
-loads the Python that built it (<code>resources/python.txt</code>), or the python executable
-that the environment variable <code>GEARPAIR_PYTHON</code> names. With logging on, the
-first message says which Python and engine run. Binaries: Linux x86_64 only.</li>
+<li>The default engine (<code>engine</code> = 0) is compiled into the FMU's binaries and
+needs nothing on the target machine, no Python. Binaries: <code>binaries/linux64</code>
+(Linux x86_64) and, from a builder with mingw-w64, <code>binaries/win64</code> (Windows
+x86_64; KERNEL32 and the C runtime msvcrt only). The scipy reference engine
+(<code>engine</code> = 1) runs Python code (pythonfmu), in the linux64 binary only; the win64
+binary refuses it with an error at <code>fmi2ExitInitializationMode</code>. It needs Python 3
+with numpy, scipy, pythonfmu and numba (<code>resources/requirements.txt</code>). Python
+hosts (fmpy, libcosimpy, ecospy) use their own interpreter; other hosts (C/C++ masters) need
+nothing set: the FMU loads the Python that built it (<code>resources/python.txt</code>), or
+the python executable that the environment variable <code>GEARPAIR_PYTHON</code> names. With
+logging on, the first message says which Python and engine run.</li>
 </ul>
 
 <h2>Inputs</h2>
@@ -502,7 +612,7 @@ def write_build_record(fmu: Path, script: Path = SCRIPT) -> Path:
 
 
 def build(out: str | Path = "dist", package: str | Path = PACKAGE,
-          script: str | Path = SCRIPT, progress=_stderr) -> Path:
+          script: str | Path = SCRIPT, progress=_stderr, win64: bool | None = None) -> Path:
     """Build ``<out>/GearPair.fmu`` and return its path.
 
     ``progress`` gets one line per step (default: printed to stderr as ``build_fmu: ...``);
@@ -510,7 +620,10 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
 
     The FMU is assembled in a private folder inside ``out`` and renamed into place when
     complete, then its build record likewise: a process reading ``<out>/GearPair.fmu``
-    meanwhile (a run, or a second build) sees the old file or the new one, never a part."""
+    meanwhile (a run, or a second build) sees the old file or the new one, never a part.
+
+    ``win64``: also ``binaries/win64/GearPair.dll`` (None: when mingw-w64 is there, else the
+    FMU holds binaries/linux64 only and ``progress`` says so; True: fail without it)."""
     from pythonfmu.builder import FmuBuilder
 
     out, package, script = Path(out).resolve(), Path(package).resolve(), Path(script).resolve()
@@ -545,7 +658,7 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
                 xml = z.read("modelDescription.xml")
             _rewrite_zip(fmu, {"modelDescription.xml": complete_model_description(xml, spec)})
             progress(f"compiling the FMU's C layer ({Path(c_compiler()).name})")
-            add_c_layer(fmu, spec, gp, progress)
+            add_c_layer(fmu, spec, gp, progress, win64=win64)
             fmu = Path(fmu).replace(out / "GearPair.fmu")
             write_build_record(fmu, script)
     finally:
@@ -562,9 +675,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="dist", help="output folder (default: dist)")
     ap.add_argument("--package", default=str(PACKAGE), help=argparse.SUPPRESS)
+    ap.add_argument("--no-win64", action="store_true",
+                    help="binaries/linux64 only, even where mingw-w64 is there")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    fmu = build(args.out, package=args.package)
+    fmu = build(args.out, package=args.package, win64=False if args.no_win64 else None)
     print(f"built {fmu} in {time.perf_counter() - t0:.2f} s")
     return 0
 

@@ -201,6 +201,13 @@ def test_parameters_match_gearparams(md):
             assert var.unit == row["unit"]
 
 
+def _builder():
+    spec = importlib.util.spec_from_file_location("_build_fmu_check", ROOT / "build_fmu.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 def test_resources_and_documentation(fmu_path):
     with zipfile.ZipFile(fmu_path) as z:
         names = set(z.namelist())
@@ -210,9 +217,11 @@ def test_resources_and_documentation(fmu_path):
         assert f"resources/gearpair/{f}" in names
     assert not any("__pycache__" in n for n in names)
     assert "resources/GearPair.py" in names
-    # the C layer and pythonfmu's library beside it; no binary for a platform not built
+    # the C layer and pythonfmu's library beside it, the C layer for Windows where mingw-w64
+    # is (test_win64.py); no binary for a platform not built
+    win64 = {"binaries/win64/GearPair.dll"} if _builder().win64_compiler() else set()
     assert {n for n in names if n.startswith("binaries/")} == {
-        "binaries/linux64/GearPair.so", "binaries/linux64/GearPair_pythonfmu.so"}
+        "binaries/linux64/GearPair.so", "binaries/linux64/GearPair_pythonfmu.so"} | win64
     assert "numpy" in req and "scipy" in req
     # the bundled package's requirements are pyproject.toml's, with the tested bounds
     try:

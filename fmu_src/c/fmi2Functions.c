@@ -26,7 +26,11 @@
 
 #include "fmu.h"
 
+#ifdef _WIN32 /* the win64 binary (mingw-w64): only the fmi2 functions are exported */
+#define EXPORT __declspec(dllexport)
+#else
 #define EXPORT __attribute__((visibility("default")))
+#endif
 
 static const char *const MODE_NAME[] = {"instantiated", "initialization mode",
                                         "step mode (initialized)", "terminated",
@@ -363,7 +367,13 @@ static int hexval(char c) {
 /* The folder a resource location names, as an absolute path (percent-decoded), or -1.
  * Masters write the same folder in several forms: file:///abs (the usual), file:////abs
  * (OMSimulator: "file:///" + an absolute path), file:/abs and file://localhost/abs; a
- * plain absolute path is taken as it is. */
+ * plain absolute path is taken as it is. On Windows the path after the slashes starts
+ * with a drive (file:///C:/abs names C:/abs), and a plain C:\abs is taken as it is. */
+#ifdef _WIN32
+#define DRIVE(q) ((((q)[0] | 0x20) >= 'a' && ((q)[0] | 0x20) <= 'z') && (q)[1] == ':')
+#else
+#define DRIVE(q) 0
+#endif
 static int resource_folder(const char *uri, char *out, size_t n) {
     if (!uri || !n) return -1;
     const char *p = uri;
@@ -376,8 +386,12 @@ static int resource_folder(const char *uri, char *out, size_t n) {
             p = end ? end : auth + len;
         }
     }
-    if (p[0] != '/') return -1;
-    while (p[1] == '/') p++; /* //abs names /abs here (POSIX leaves // to the system) */
+    if (p[0] == '/') {
+        while (p[1] == '/') p++; /* //abs names /abs here (POSIX leaves // to the system) */
+        if (DRIVE(p + 1)) p++;   /* Windows: /C:/abs names C:/abs */
+    } else if (!DRIVE(p)) {
+        return -1;
+    }
     size_t o = 0;
     for (; *p; p++) {
         int c = (unsigned char)*p, hi, lo;

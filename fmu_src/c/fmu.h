@@ -61,8 +61,13 @@ typedef struct {
 /* -- what the generic layer gives the model part -------------------------------------- */
 /* A message to the host's logger: warnings and worse always, status OK only when logging is
  * on (and its category enabled). */
+#ifdef __MINGW_PRINTF_FORMAT /* mingw-w64: the C99 printf of __USE_MINGW_ANSI_STDIO */
+#define FMU_PRINTF __MINGW_PRINTF_FORMAT
+#else
+#define FMU_PRINTF printf
+#endif
 void fmu_log(Instance *inst, fmi2Status status, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
+    __attribute__((format(FMU_PRINTF, 3, 4)));
 /* The same with the message text as it is (no format). */
 void fmu_emit(Instance *inst, fmi2Status status, const char *category, const char *msg);
 

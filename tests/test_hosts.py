@@ -123,7 +123,8 @@ def _signal_name(rc: int) -> str:
 
 
 def compile_c_host(source: Path, exe: Path) -> Path:
-    """Build a C host with gcc against fmpy's FMI 2 headers (skip without either)."""
+    """Build a C host with gcc against fmpy's FMI 2 headers and examples/hosts/fmu_dl.h
+    (skip without either)."""
     gcc = shutil.which("gcc") or shutil.which("cc")
     if gcc is None:
         pytest.skip("no C compiler")
@@ -131,7 +132,8 @@ def compile_c_host(source: Path, exe: Path) -> Path:
     if not (include / "fmi2Functions.h").is_file():
         pytest.skip(f"fmpy ships no FMI 2 headers in {include}")
     subprocess.run([gcc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{include}",
-                    "-o", str(exe), str(source), "-ldl", "-lm"], check=True)
+                    f"-I{HOSTS}", "-o", str(exe), str(source), "-ldl", "-lm", "-lpthread"],
+                   check=True)
     return exe
 
 

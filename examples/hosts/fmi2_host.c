@@ -1,9 +1,13 @@
-/* A minimal FMI 2.0 co-simulation host: loads an extracted FMU with dlopen, sets start
- * values, steps it and prints the outputs after every step as CSV with full precision.
+/* A minimal FMI 2.0 co-simulation host: loads an extracted FMU's binary (dlopen on Linux,
+ * LoadLibrary on Windows: fmu_dl.h), sets start values, steps it and prints the outputs
+ * after every step as CSV with full precision.
  *
  * Build (the FMI 2 headers ship with fmpy, in fmpy/c-code):
  *   gcc -O2 -std=c99 -I"$(python -c 'import fmpy, os; print(os.path.dirname(fmpy.__file__))')/c-code" \
  *       -o fmi2_host fmi2_host.c -ldl
+ * and for Windows x86-64 (binaries/win64; C99 printf for the same digits as on Linux):
+ *   x86_64-w64-mingw32-gcc -O2 -std=c99 -D__USE_MINGW_ANSI_STDIO=1 -I<that folder> \
+ *       -o fmi2_host.exe fmi2_host.c
  *
  * Usage:
  *   fmi2_host UNZIPDIR MODEL_ID GUID STEPS N [options]
@@ -15,7 +19,7 @@
  *     -o VR,VR,...   Real outputs to print (value references)
  *     -n VR,VR,...   Integer outputs to print
  *     -t T0          start time (default 0)
- *     -d 1           unload the FMU's library (dlclose) after fmi2FreeInstance
+ *     -d 1           unload the FMU's library (dlclose, FreeLibrary) after fmi2FreeInstance
  *     -l 1           loggingOn: information messages too (e.g. which Python and engine run)
  * Prints "time,<reals...>,<integers...>" for the initial state and after each step. Exits 0
  * when every call returned fmi2OK/fmi2Warning, else 1 (with the failing call on stderr).
@@ -26,13 +30,13 @@
  * FMU (or the one GEARPAIR_PYTHON names; see docs/hosts.md).
  */
 #define _POSIX_C_SOURCE 200809L
-#include <dlfcn.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
+#include "fmu_dl.h"
 
 #define MAXV 64
 
@@ -48,10 +52,10 @@ static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status
     va_end(ap);
 }
 
-static void *sym(void *lib, const char *name) {
-    void *f = dlsym(lib, name);
+static void *sym(fmu_lib lib, const char *name) {
+    void *f = fmu_dlsym(lib, name);
     if (!f) {
-        fprintf(stderr, "missing symbol %s: %s\n", name, dlerror());
+        fprintf(stderr, "missing symbol %s: %s\n", name, fmu_dlerror());
         exit(1);
     }
     return f;
@@ -123,11 +127,11 @@ int main(int argc, char **argv) {
     }
 
     char path[4096], uri[4200];
-    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", dir, model);
-    snprintf(uri, sizeof uri, "file://%s/resources", dir);
-    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    fmu_binary_path(dir, model, path, sizeof path);
+    fmu_resource_uri(dir, uri, sizeof uri);
+    fmu_lib lib = fmu_dlopen(path);
     if (!lib) {
-        fprintf(stderr, "dlopen %s: %s\n", path, dlerror());
+        fprintf(stderr, "loading %s: %s\n", path, fmu_dlerror());
         return 1;
     }
     fmi2InstantiateTYPE *instantiate = (fmi2InstantiateTYPE *)sym(lib, "fmi2Instantiate");
@@ -174,8 +178,8 @@ int main(int argc, char **argv) {
     }
     CHECK(terminate(c));
     free_instance(c);
-    if (unload && dlclose(lib) != 0) {
-        fprintf(stderr, "dlclose: %s\n", dlerror());
+    if (unload && fmu_dlclose(lib) != 0) {
+        fprintf(stderr, "unloading: %s\n", fmu_dlerror());
         return 1;
     }
     return 0;

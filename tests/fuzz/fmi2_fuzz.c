@@ -21,7 +21,6 @@
  * Exit status 0 when all held; otherwise it prints the failing call and exits 1.
  */
 #define _POSIX_C_SOURCE 200809L
-#include <dlfcn.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -30,6 +29,7 @@
 #include <string.h>
 
 #include "fmi2Functions.h"
+#include "fmu_dl.h" /* examples/hosts: dlopen, or LoadLibrary on Windows */
 
 #define MAXV 128
 typedef struct {
@@ -106,8 +106,8 @@ static struct {
     fmi2CancelStepTYPE *cancel;
 } F;
 
-static void *sym(void *lib, const char *name) {
-    void *f = dlsym(lib, name);
+static void *sym(fmu_lib lib, const char *name) {
+    void *f = fmu_dlsym(lib, name);
     if (!f) {
         fprintf(stderr, "missing %s\n", name);
         exit(2);
@@ -378,11 +378,11 @@ int main(int argc, char **argv) {
     fclose(f);
 
     char path[4096];
-    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", argv[1], model_id);
-    snprintf(uri, sizeof uri, "file://%s/resources", argv[1]);
-    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    fmu_binary_path(argv[1], model_id, path, sizeof path);
+    fmu_resource_uri(argv[1], uri, sizeof uri);
+    fmu_lib lib = fmu_dlopen(path);
     if (!lib) {
-        fprintf(stderr, "dlopen: %s\n", dlerror());
+        fprintf(stderr, "loading %s: %s\n", path, fmu_dlerror());
         return 2;
     }
     F.instantiate = (fmi2InstantiateTYPE *)sym(lib, "fmi2Instantiate");

@@ -34,8 +34,8 @@ LONG_FILES = ("test_fmu_start.py", "test_golden.py", "test_core.py", "test_engin
               "test_hosts.py", "test_bench.py", "test_same_bits.py", "test_effects.py",
               "test_sensitivity.py", "test_fast_engine.py", "test_fmu_loading.py",
               "test_fmu_harness.py", "test_detlinalg.py", "test_scenes.py",
-              "test_hard_cases.py", "test_sweep.py", "test_sweep_cluster.py",
-              "test_properties.py")
+              "test_hard_cases.py", "test_contact_events.py", "test_sweep.py",
+              "test_sweep_cluster.py", "test_properties.py")
 
 
 def pytest_configure(config):

@@ -21,6 +21,13 @@ from the same numba module; it loads no Python (``fmu_src/c/no_python.c``: engin
 refused with a clear error) and needs only KERNEL32.dll and msvcrt.dll. Without mingw-w64
 (or with ``--no-win64``) the FMU holds ``binaries/linux64`` only and the build says so.
 pythonfmu's own win64 binary is left out (see docs/hosts.md).
+
+``GearPair3.fmu`` beside it is the same FMU for FMI 3.0 co-simulation (`build_fmi3`): its
+modelDescription generated from GearPair.fmu's (`fmi3_model_description`: the same
+variables and value references, Float64/Int32/Boolean, the integer-coded choices as
+Enumerations; Event Mode and early return declared), its binaries the generic FMI 3 layer
+``fmu_src/c/fmi3Functions.c`` over the same model part and engine object, for the same
+platforms (``x86_64-linux``, ``x86_64-windows``); the FMI 3 headers come from fmpy.
 """
 
 from __future__ import annotations
@@ -403,6 +410,206 @@ def _fmu_config():
     return mod
 
 
+# -- the FMI 3.0 FMU: GearPair3.fmu -----------------------------------------------------------
+FMI3_MODEL = "GearPair3"
+# the generic FMI 3 layer over the same model part; the win64 binary loads no Python
+FMI3_LAYER = ("fmi3Functions.c", "fmi3_states.c", "fmi3_none.c")
+FMI3_SOURCES = (*FMI3_LAYER, "gearpair_fmu.c", "gearpair_model.c", "python_slave.c")
+FMI3_WIN64_SOURCES = (*FMI3_LAYER, "gearpair_fmu.c", "gearpair_model.c", "no_python.c")
+FMI3_PLATFORM = {"linux64": ("x86_64-linux", ".so"), "win64": ("x86_64-windows", ".dll")}
+FMI3_CAPABILITIES = {
+    "needsExecutionTool": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
+    "canGetAndSetFMUState": "true", "canSerializeFMUState": "true",
+    "providesDirectionalDerivatives": "false", "providesAdjointDerivatives": "false",
+    "providesPerElementDependencies": "false",
+    "canHandleVariableCommunicationStepSize": "true", "maxOutputDerivativeOrder": "0",
+    "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false",
+    "mightReturnEarlyFromDoStep": "true", "hasEventMode": "true",
+    "providesEvaluateDiscreteStates": "false"}
+_FMI3_ROOT = ("modelName", "description", "author", "version", "copyright", "license",
+              "generationTool", "generationDateAndTime", "variableNamingConvention")
+
+
+def fmi3_type_name(name: str) -> str:
+    """The EnumerationType of an integer-coded parameter: friction_law -> FrictionLaw."""
+    return "".join(w.capitalize() for w in name.split("_"))
+
+
+def fmi3_model_description(xml: bytes, spec: list[dict],
+                           model: str = FMI3_MODEL) -> tuple[bytes, int]:
+    """GearPair3.fmu's modelDescription.xml (FMI 3.0) and the value reference of its
+    independent variable ``time``, from GearPair.fmu's final one (FMI 2.0, `
+    complete_model_description`) and the interface ``spec``: the same variables, value
+    references, units, ranges and start values, typed Float64, Int32 and Boolean, and every
+    integer-coded choice (``spec``'s codes) an Enumeration of its own type; ``time`` (FMI 3
+    requires one independent variable) takes the value reference after the last one; the
+    instantiation token is GearPair.fmu's GUID. The fmi3 layer types the variables by the
+    same rule (fmi3Functions.c, `kind_of`)."""
+    src = ET.fromstring(xml)
+    by_name = {v["name"]: v for v in spec}
+    root = ET.Element("fmiModelDescription", {"fmiVersion": "3.0"})
+    for key in _FMI3_ROOT:
+        if src.get(key):
+            root.set(key, src.get(key))
+    root.set("instantiationToken", src.get("guid"))
+    ET.SubElement(root, "CoSimulation", {"modelIdentifier": model, **FMI3_CAPABILITIES})
+    root.append(src.find("UnitDefinitions"))
+    types = ET.SubElement(root, "TypeDefinitions")
+    for v in spec:
+        if v["codes"]:
+            t = ET.SubElement(types, "EnumerationType", name=fmi3_type_name(v["name"]))
+            for i, code in enumerate(v["codes"]):
+                ET.SubElement(t, "Item", name=code, value=str(i))
+    logs = src.find("LogCategories")
+    for cat in logs if logs is not None else ():
+        cat.set("description", cat.get("description", "").replace("fmi2", "fmi3"))
+    if logs is not None:
+        root.append(logs)
+    root.append(src.find("DefaultExperiment"))
+
+    svs = src.find("ModelVariables").findall("ScalarVariable")
+    vrs = [int(sv.get("valueReference")) for sv in svs]
+    time_vr = max(vrs) + 1
+    variables = ET.SubElement(root, "ModelVariables")
+    ET.SubElement(variables, "Float64", name="time", valueReference=str(time_vr),
+                  causality="independent", variability="continuous",
+                  description="simulation time")
+    for sv in svs:
+        typed, v = sv[0], by_name[sv.get("name")]
+        tag = {"Real": "Float64", "Boolean": "Boolean"}.get(typed.tag) or \
+            ("Enumeration" if v["codes"] else "Int32")
+        el = ET.SubElement(variables, tag, {k: sv.get(k) for k in (
+            "name", "valueReference", "description", "causality", "variability", "initial")
+            if sv.get(k) is not None})
+        if tag == "Enumeration":
+            el.set("declaredType", fmi3_type_name(v["name"]))
+        for key in ("unit", "displayUnit", "min", "max", "start"):
+            if typed.get(key) is not None:
+                el.set(key, typed.get(key))
+
+    structure = ET.SubElement(root, "ModelStructure")
+    old = src.find("ModelStructure")
+
+    def vr_list(indices: str | None) -> str:  # FMI 2 indices (1-based) -> value references
+        return " ".join(str(vrs[int(i) - 1]) for i in (indices or "").split())
+
+    for kind, tag in (("Outputs", "Output"), ("InitialUnknowns", "InitialUnknown")):
+        for u in old.find(kind):
+            el = ET.SubElement(structure, tag, valueReference=str(vrs[int(u.get("index")) - 1]))
+            if u.get("dependencies") is not None:
+                el.set("dependencies", vr_list(u.get("dependencies")))
+                el.set("dependenciesKind", u.get("dependenciesKind") or "")
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True), time_vr
+
+
+def fmi3_headers() -> Path:
+    """The FMI 3.0 C headers (fmi3Functions.h and the two it includes), from fmpy's c-code
+    folder (fmpy: the ``fmu`` extra); raises with what to install."""
+    try:
+        import fmpy
+    except ImportError as e:
+        raise RuntimeError("building GearPair3.fmu needs the FMI 3 headers that ship with "
+                           "fmpy: pip install 'fmpy>=0.3.20,<0.4' (the fmu extra)") from e
+    folder = Path(fmpy.__file__).parent / "c-code"
+    if not (folder / "fmi3Functions.h").is_file():
+        raise RuntimeError(f"fmpy {fmpy.__version__} has no fmi3Functions.h in {folder}")
+    return folder
+
+
+def compile_fmi3_layer(xml: bytes, spec: list[dict], gp, workdir: Path, time_vr: int,
+                       progress=lambda msg: None, win64: bool = False) -> dict[str, bytes]:
+    """GearPair3.fmu's binaries by platform (``linux64``, with ``win64`` also ``win64``): the
+    generic FMI 3 layer (fmu_src/c/fmi3Functions.c) with the model part, the variable table
+    (`fmu_config.config_h` of GearPair.fmu's modelDescription ``xml``, so the two FMUs share
+    it) and the engine's object, the same as GearPair.fmu's (`gearpair.aot`, cached by the
+    engine's sources). ``time_vr``: the value reference of ``time``
+    (`fmi3_model_description`)."""
+    fmu_config = _fmu_config()
+    model2 = ET.fromstring(xml).find("CoSimulation").get("modelIdentifier")
+    (workdir / "config.h").write_text(fmu_config.config_h(xml, spec, model2 + INNER_SUFFIX))
+    aot = importlib.import_module(gp.__name__ + ".aot")
+    t0 = time.perf_counter()
+    made = aot.write_engine(workdir, path=str(PACKAGE.parent), win64=win64)
+    how = "from the cache" if made["cached"] else "compiled"
+    progress(f"GearPair3.fmu: the engine's object {how} in {time.perf_counter() - t0:.0f} s")
+    (workdir / "gearpair_config.h").write_text(fmu_config.gearpair_config_h(spec, gp))
+    flags = ["-O2", "-std=c11", "-shared", "-Wall", "-Wextra", "-Werror", f"-I{workdir}",
+             f"-I{SHIM_SRC}", f"-I{fmi3_headers()}", f"-DMODEL_TIME_VR={time_vr}u"]
+    lib = workdir / f"{FMI3_MODEL}.so"
+    builds = {"linux64": [c_compiler(), *flags, "-fPIC", "-fvisibility=hidden", "-o", str(lib),
+                          *(str(SHIM_SRC / f) for f in FMI3_SOURCES), made["object"],
+                          "-Wl,-z,nodelete", "-Wl,--no-undefined", "-ldl", "-lm", "-lpthread"]}
+    if win64:
+        dll = workdir / f"{FMI3_MODEL}.dll"
+        builds["win64"] = [win64_compiler() or WIN64_CC, *flags, "-D__USE_MINGW_ANSI_STDIO=1",
+                           '-DGP_PLATFORM="x86_64-windows"', "-o", str(dll),
+                           *(str(SHIM_SRC / f) for f in FMI3_WIN64_SOURCES),
+                           made["object_win64"], "-static-libgcc", "-Wl,--no-undefined",
+                           "-Wl,--no-insert-timestamp", "-s"]
+    out = {}
+    for platform, cmd in builds.items():
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise RuntimeError(f"compiling GearPair3.fmu's {platform} binary failed:\n"
+                               f"{' '.join(cmd)}\n{r.stderr}")
+        out[platform] = Path(cmd[cmd.index("-o") + 1]).read_bytes()
+    other = [d for d in pe_imports(out["win64"]) if d.lower() not in WIN64_SYSTEM_DLLS] \
+        if win64 else []
+    if other:
+        raise RuntimeError(f"GearPair3.fmu's win64 binary imports {', '.join(other)}")
+    return out
+
+
+def _fmi3_documentation(page: bytes) -> bytes:
+    """GearPair.fmu's documentation page, said of the FMI 3.0 build."""
+    text = page.decode("utf-8").replace(
+        "<title>GearPair FMU</title>", "<title>GearPair3 FMU (FMI 3.0)</title>")
+    note = ("<p><strong>GearPair3.fmu</strong> is the FMI 3.0 co-simulation build of "
+            "GearPair.fmu: the same model, variables, value references and units (plus the "
+            "independent variable <code>time</code>); the integer-coded choices are "
+            "Enumerations (set and got as Int64). Where this page names an fmi2 function, "
+            "read its fmi3 counterpart. It provides Event Mode (<code>hasEventMode</code>) "
+            "and may return early from <code>fmi3DoStep</code> at a contact event "
+            "(<code>mightReturnEarlyFromDoStep</code>; docs/fmu.md of the project).</p>\n")
+    head = text.index("</h1>") + len("</h1>\n")
+    text = text[:head] + note + text[head:].replace(
+        "FMI 2.0 co-simulation FMU", "FMI 3.0 co-simulation FMU", 1)
+    return text.encode("utf-8")
+
+
+def build_fmi3(fmu: Path, spec: list[dict], gp, dest: Path,
+               progress=lambda msg: None) -> Path:
+    """Write ``dest`` (GearPair3.fmu) from the finished GearPair.fmu ``fmu``: its
+    modelDescription as FMI 3.0 (`fmi3_model_description`), the FMI 3 layer's binaries for
+    the platforms GearPair.fmu has (`compile_fmi3_layer`; ``x86_64-linux`` beside pythonfmu's
+    library for the reference engine, ``x86_64-windows`` when GearPair.fmu has win64), and
+    its resources and documentation."""
+    with zipfile.ZipFile(fmu) as z:
+        xml = z.read("modelDescription.xml")
+        names = z.namelist()
+        model2 = ET.fromstring(xml).find("CoSimulation").get("modelIdentifier")
+        inner = z.read(f"binaries/linux64/{model2}{INNER_SUFFIX}")
+        kept = {n: z.read(n) for n in names if n.startswith(("resources/", "documentation/"))}
+    xml3, time_vr = fmi3_model_description(xml, spec)
+    win64 = f"binaries/win64/{model2}.dll" in names
+    progress(f"compiling GearPair3.fmu's FMI 3 layer ({'linux64, win64' if win64 else 'linux64'}"
+             ")")
+    with tempfile.TemporaryDirectory(prefix="gearpair_fmi3_") as tmp:
+        binaries = compile_fmi3_layer(xml, spec, gp, Path(tmp), time_vr, progress, win64)
+    if "documentation/index.html" in kept:
+        kept["documentation/index.html"] = _fmi3_documentation(kept["documentation/index.html"])
+    with zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("modelDescription.xml", xml3)
+        for platform, data in binaries.items():
+            folder, suffix = FMI3_PLATFORM[platform]
+            z.writestr(f"binaries/{folder}/{FMI3_MODEL}{suffix}", data)
+        z.writestr(f"binaries/x86_64-linux/{model2}{INNER_SUFFIX}", inner)
+        for name, data in kept.items():
+            z.writestr(name, data)
+    return dest
+
+
 # -- documentation ----------------------------------------------------------------------------
 def _cell(x) -> str:
     if x is None:
@@ -623,7 +830,10 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
     meanwhile (a run, or a second build) sees the old file or the new one, never a part.
 
     ``win64``: also ``binaries/win64/GearPair.dll`` (None: when mingw-w64 is there, else the
-    FMU holds binaries/linux64 only and ``progress`` says so; True: fail without it)."""
+    FMU holds binaries/linux64 only and ``progress`` says so; True: fail without it).
+
+    ``<out>/GearPair3.fmu``, the FMI 3.0 build of the same FMU (`build_fmi3`), is written
+    beside it, before it."""
     from pythonfmu.builder import FmuBuilder
 
     out, package, script = Path(out).resolve(), Path(package).resolve(), Path(script).resolve()
@@ -659,6 +869,8 @@ def build(out: str | Path = "dist", package: str | Path = PACKAGE,
             _rewrite_zip(fmu, {"modelDescription.xml": complete_model_description(xml, spec)})
             progress(f"compiling the FMU's C layer ({Path(c_compiler()).name})")
             add_c_layer(fmu, spec, gp, progress, win64=win64)
+            fmu3 = build_fmi3(fmu, spec, gp, Path(part) / f"{FMI3_MODEL}.fmu", progress)
+            fmu3.replace(out / fmu3.name)
             fmu = Path(fmu).replace(out / "GearPair.fmu")
             write_build_record(fmu, script)
     finally:
@@ -680,7 +892,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     fmu = build(args.out, package=args.package, win64=False if args.no_win64 else None)
-    print(f"built {fmu} in {time.perf_counter() - t0:.2f} s")
+    print(f"built {fmu} and {FMI3_MODEL}.fmu (FMI 3.0) in {time.perf_counter() - t0:.2f} s")
     return 0
 
 

@@ -75,7 +75,16 @@ def fmu_path(tmp_path_factory, request) -> Path:
 def _built(out: Path) -> Path:
     path = _build_module().build(out)
     assert path == out / "GearPair.fmu" and path.is_file()
-    assert sorted(p.name for p in out.iterdir()) == ["GearPair.fmu", "GearPair.fmu.build.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["GearPair.fmu", "GearPair.fmu.build.json",
+                                                     "GearPair3.fmu"]
+    return path
+
+
+@pytest.fixture(scope="session")
+def fmu3_path(fmu_path) -> Path:
+    """GearPair3.fmu, the FMI 3.0 build the same build writes beside GearPair.fmu."""
+    path = fmu_path.with_name("GearPair3.fmu")
+    assert path.is_file()
     return path
 
 

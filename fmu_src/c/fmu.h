@@ -1,10 +1,10 @@
-/* The contract between the generic FMI 2.0 co-simulation layer (fmi2Functions.c) and a
- * model part. The generic layer never names a model: it knows the variables only through
- * the generated table (config.h: MODEL_GUID, MODEL_NVARS, MODEL_VARS), holds every
- * variable's value, runs the FMI state machine, refuses values out of range, keeps and
- * serializes FMU states and logs. The model part (model_* below) builds its engine from
- * the values at the end of initialization, steps it, writes the outputs back into the
- * values and saves and restores its own state as bytes. */
+/* The contract between a generic FMI co-simulation layer (FMI 2.0: fmi2Functions.c; FMI
+ * 3.0: fmi3Functions.c) and a model part. The generic layer never names a model: it knows
+ * the variables only through the generated table (config.h: MODEL_GUID, MODEL_NVARS,
+ * MODEL_VARS), holds every variable's value, runs the FMI state machine, refuses values out
+ * of range, keeps and serializes FMU states and logs. The model part (model_* below) builds
+ * its engine from the values at the end of initialization, steps it, writes the outputs
+ * back into the values and saves and restores its own state as bytes. */
 #ifndef FMU_H
 #define FMU_H
 
@@ -56,6 +56,11 @@ typedef struct {
     int n_refused;
     FmuState *states;
     void *model; /* the model part's own data */
+    /* FMI 3 early return (fmi3Functions.c; 0 in FMI 2): model_do_step may end a step from t
+     * over h at the first event inside it, after handling it, and then puts the time it
+     * reached in step_end (which the layer sets to t + h before the call). */
+    int early_return;
+    double step_end;
 } Instance;
 
 /* -- what the generic layer gives the model part -------------------------------------- */

@@ -16,6 +16,10 @@ from .result import SweepResult
 from .settings import SweepSettings, sweepable
 
 BATCH = 256  # most records handed to the sink at once
+# A serial run hands each record to the sink at once (0), or the records finished within
+# this many seconds together (a function in place of the model, `sensitivity.model_hook`,
+# finishes points in microseconds, and a store write per point would cost far more)
+SERIAL_FLUSH_S = 0.0
 
 
 @dataclass
@@ -95,16 +99,31 @@ def execute(tasks: list[tuple], settings: SweepSettings, sink: Callable[[list[di
         t1 = time.perf_counter()
         bar.start()
         retried = 0
-        for i, name, v in tasks:
-            rec = run_point(i, name, v, settings)
-            for a in range(2, retries + 2):
-                if rec["status"] != "failed":  # ok, or invalid: a tighter rtol cannot help
-                    break
-                bar.update(False, retrying=True)
-                retried += 1
-                rec = run_point(i, name, v, settings, _tighter(settings.rtol, a), a)
-            sink([rec])
-            bar.update(rec["status"] != "failed")
+        pending: list[dict] = []
+        last = time.perf_counter()
+
+        def flush() -> None:
+            nonlocal pending, last
+            out, pending, last = pending, [], time.perf_counter()
+            if out:
+                sink(out)
+                for r in out:
+                    bar.update(r["status"] != "failed")
+
+        try:
+            for i, name, v in tasks:
+                rec = run_point(i, name, v, settings)
+                for a in range(2, retries + 2):
+                    if rec["status"] != "failed":  # ok, or invalid: a tighter rtol cannot help
+                        break
+                    bar.update(False, retrying=True)
+                    retried += 1
+                    rec = run_point(i, name, v, settings, _tighter(settings.rtol, a), a)
+                pending.append(rec)
+                if len(pending) >= BATCH or time.perf_counter() - last >= SERIAL_FLUSH_S:
+                    flush()
+        finally:  # the finished points are stored also when the run is stopped
+            flush()
         return Cost(time.perf_counter() - t1, startup, 1, "serial", retried)
     return _run_dask(tasks, settings, sink, scheduler, workers, retries, bar, t0)
 

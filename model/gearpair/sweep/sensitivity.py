@@ -31,6 +31,7 @@ _NOT_OUTPUTS = {"index", "param", "value", "status", "error", "attempts", "rtol"
                 "stick_tie", "sliding", "worker", "wall_s", "cpu_s", "speed_rpm", "torque_nm",
                 "mu"}
 OUTPUTS = tuple(c for c in COLUMNS if c not in _NOT_OUTPUTS)
+HOOK_FLUSH_S = 0.5  # a serial run under `model_hook` stores its points this often (s)
 
 
 def parse_ranges(specs: list[str]) -> dict[str, tuple[float, float]]:
@@ -103,7 +104,9 @@ def model_hook(func: Callable[[dict[str, float]], Mapping[str, float]]):
     """Replace the gear model of every point by ``func`` (tests: known answers).
 
     ``func({name: value})`` returns ``{output: value}``; the record keeps the machinery's
-    other columns. Serial runs only: the hook patches this process, not dask workers.
+    other columns. Serial runs only: the hook patches this process, not dask workers. Its
+    points take microseconds, so while it is on a serial run hands them to the store in
+    batches (at most every `HOOK_FLUSH_S` seconds) rather than one by one.
     """
     from . import run as run_mod
 
@@ -115,12 +118,13 @@ def model_hook(func: Callable[[dict[str, float]], Mapping[str, float]]):
         rec["status"] = "ok"
         return rec
 
-    saved = run_mod.run_point, run_mod._warm
+    saved = run_mod.run_point, run_mod._warm, run_mod.SERIAL_FLUSH_S
     run_mod.run_point, run_mod._warm = fake, lambda: None
+    run_mod.SERIAL_FLUSH_S = HOOK_FLUSH_S
     try:
         yield
     finally:
-        run_mod.run_point, run_mod._warm = saved
+        run_mod.run_point, run_mod._warm, run_mod.SERIAL_FLUSH_S = saved
 
 
 def run_sensitivity(ranges: Mapping[str, tuple[float, float]] | list[str],

@@ -32,6 +32,20 @@ if ! command -v "${CC:-gcc}" >/dev/null 2>&1 && ! command -v cc >/dev/null 2>&1;
         exit 1
     }
 fi
+# Windows: build_fmu.py cross-compiles GearPair.fmu's win64 binary with mingw-w64, and
+# tests/test_win64.py runs it under Wine (Debian's gcc-mingw-w64-x86-64 and wine64, x86-64
+# machines only). Without them the FMU holds linux64 only and those tests are skipped.
+if [ "$(uname -m)" = x86_64 ] && command -v apt-get >/dev/null 2>&1 \
+        && { ! command -v x86_64-w64-mingw32-gcc >/dev/null 2>&1 \
+             || ! command -v wine >/dev/null 2>&1; }; then
+    SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo -n"
+    { $SUDO apt-get update -qq \
+        && $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-mingw-w64-x86-64 \
+            wine64; } \
+        >/dev/null 2>&1 \
+        || echo "setup.sh: could not install gcc-mingw-w64-x86-64 and wine64; GearPair.fmu" \
+                "gets no win64 binary and the Wine tests will be skipped" >&2
+fi
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip 2>&1 | grep -v "^WARNING: Location" || true
 .venv/bin/python -m pip install -q -e '.[dev]' 2>&1 | grep -v "^WARNING: Location" || true

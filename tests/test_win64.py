@@ -21,7 +21,7 @@ Skips, with the reason: no mingw-w64 (then the FMU has no win64 binary), no Wine
 objdump of mingw-w64. ``scripts/setup.sh`` installs them from Debian's packages
 (gcc-mingw-w64-x86-64, wine64). Wine's prefix is kept in the user cache (made once: about
 12 s and 0.7 GB; GEARPAIR_WINEPREFIX names another), and its wineserver ends by itself
-a few seconds after the last program.
+3 s after the last program.
 """
 
 from __future__ import annotations
@@ -76,6 +76,9 @@ REFUSALS = {
     "fixed_after_init": ({}, {"rtol": 1e-6}, (0, 0, 3)),
 }
 REFERENCE = "reference_engine"  # engine = 1: win64 only (on Linux it runs, in Python)
+# resource locations of the extracted FMU's folder ({} as Z:/...), each tried in win64
+LOCATIONS = ("file:/{}/resources", "file://localhost/{}/resources", "{}\\resources",
+             "file:///{}/re%73ources")
 
 
 # -- the FMU and the tools ---------------------------------------------------------------------
@@ -193,7 +196,7 @@ def _values(values: dict, vr: dict, types: dict) -> str:
     return " ".join(f"{types[n][0]}{vr[n]}={float(x)!r}" for n, x in values.items())
 
 
-def _script(md, reference: bool) -> str:
+def _script(md, reference: bool = False, folder: str | None = None) -> str:
     vr, types = _vr_types(md)
     reals = [v.valueReference for v in md.modelVariables
              if v.causality == "output" and v.type == "Real"]
@@ -209,6 +212,9 @@ def _script(md, reference: bool) -> str:
     if reference:  # then a new instance with the default engine, in the same process
         lines += [f"refuse {REFERENCE} / {_values({'engine': 1}, vr, types)}",
                   f"run after_reference 3 {H!r}"]
+    if folder is not None:  # other forms of the resource location that Windows masters use
+        for k, form in enumerate(LOCATIONS):
+            lines += [f"location {form.format(folder)}", f"run location{k} 1 {H!r}"]
     return "\n".join(lines) + "\n"
 
 
@@ -219,9 +225,10 @@ def scenes(unzipped, md, wine, tmp_path_factory) -> dict:
     native = compile_c_host(SCENES_C, where / "fmi2_scenes")
     windows = compile_win64_host(SCENES_C, where / "fmi2_scenes.exe")
     lin = subprocess.run([str(native), str(unzipped), "GearPair", md.guid],
-                         input=_script(md, False), capture_output=True, text=True,
+                         input=_script(md), capture_output=True, text=True,
                          env={"PATH": "/usr/bin:/bin"}, timeout=300)
-    win = wine(windows, winpath(unzipped), "GearPair", md.guid, input=_script(md, True))
+    win = wine(windows, winpath(unzipped), "GearPair", md.guid,
+               input=_script(md, reference=True, folder=winpath(unzipped)))
     return {"linux": lin, "win64": win}
 
 
@@ -292,6 +299,13 @@ def test_the_reference_engine_says_what_to_do_instead(scenes):
         assert words in said[0], said[0]
     # the same process goes on: a new instance with the default engine runs
     assert len([ln for ln in out.splitlines() if ln.startswith("after_reference ")]) == 4
+
+
+def test_resource_locations_as_windows_masters_write_them(scenes):
+    out = scenes["win64"].stdout
+    for k, form in enumerate(LOCATIONS):
+        assert len([ln for ln in out.splitlines() if ln.startswith(f"location{k} ")]) == 2, \
+            (form, out[-2000:])
 
 
 # -- the example host and the fuzzer -----------------------------------------------------------

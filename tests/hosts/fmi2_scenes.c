@@ -9,6 +9,8 @@
  * SCRIPT has one command a line ('#' starts a comment); VALUES are start values Rvr=x,
  * Ivr=n, Bvr=0|1 set before initialization:
  *   outputs R,R,... I,I,...         the value references of the outputs printed (Real, Integer)
+ *   location TEXT                   the resource location of the instances that follow
+ *                                   (default: file:///UNZIPDIR/resources)
  *   run NAME N H VALUES             initialize, N steps of H; prints each row "NAME k t bits"
  *                                   (t and the outputs as the hex of their 64 bits)
  *   states NAME N H VALUES          N steps with the FMU state got and serialized after N/2;
@@ -82,7 +84,8 @@ static struct {
     fmi2DeSerializeFMUstateTYPE *deserialize;
 } F;
 
-static const char *g_guid, *g_uri;
+static const char *g_guid;
+static char g_uri[4200];
 static unsigned g_rvr[MAXV], g_ivr[MAXV];
 static int g_nr, g_ni, g_failed;
 
@@ -407,11 +410,13 @@ int main(int argc, char **argv) {
         fprintf(stderr, "usage: %s UNZIPDIR MODEL_ID GUID < SCRIPT\n", argv[0]);
         return 2;
     }
-    char path[4096], uri[4200], line[8192], *tok[MAXTOK];
+    char path[4096], line[8192], *tok[MAXTOK];
+    /* one write a block, not a line: under Wine each write costs about 1 ms */
+    static char out_buf[1 << 16];
+    setvbuf(stdout, out_buf, _IOFBF, sizeof out_buf);
     fmu_binary_path(argv[1], argv[2], path, sizeof path);
-    fmu_resource_uri(argv[1], uri, sizeof uri);
+    fmu_resource_uri(argv[1], g_uri, sizeof g_uri);
     g_guid = argv[3];
-    g_uri = uri;
     fmu_lib lib = fmu_dlopen(path);
     if (!lib) {
         fprintf(stderr, "loading %s: %s\n", path, fmu_dlerror());
@@ -445,6 +450,8 @@ int main(int argc, char **argv) {
         if (!strcmp(tok[0], "outputs") && n >= 2) {
             g_nr = parse_list(tok[1], g_rvr);
             g_ni = n > 2 ? parse_list(tok[2], g_ivr) : 0;
+        } else if (!strcmp(tok[0], "location") && n == 2) {
+            snprintf(g_uri, sizeof g_uri, "%s", tok[1]);
         } else if ((!strcmp(tok[0], "run") || !strcmp(tok[0], "states")) && n >= 4) {
             if (parse_values(tok + 4, n - 4, &a)) return 2;
             int steps_n = atoi(tok[2]);

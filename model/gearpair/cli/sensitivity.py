@@ -12,10 +12,16 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "sensitivity", help="Sobol (Saltelli) or Morris indices of sweep figures over "
         "parameter ranges (SALib), the points in a resumable sweep store",
         description="Example: gearpair sensitivity mu=0.01:0.05 torque=1000:4000 "
-                    "speed_rpm=100:600 -n 256 --outputs stick_ratio,contact_loss_ratio")
-    s.add_argument("ranges", nargs="+", metavar="NAME=LO:HI", help="uniform range of a "
-                   "sweepable parameter: speed_rpm (r/min), torque (N.m) or a GearParams "
-                   "field in SI units (e.g. mu)")
+                    "speed_rpm=100:600 -n 256 --outputs stick_ratio,contact_loss_ratio. "
+                    "The points and the indices go to one Zarr store (--store; the indices "
+                    "as its group 'sensitivity').")
+    s.add_argument("ranges", nargs="+", metavar="NAME=LO:HI|NAME=DIST:A:B...",
+                   help="a sweepable parameter (speed_rpm in r/min, torque in N.m or a "
+                   "GearParams field in SI units, e.g. mu) and its distribution in SALib's "
+                   "terms: LO:HI (uniform), logunif:LO:HI, triang:LO:HI:PEAK (PEAK: the "
+                   "mode's place as a fraction of the width, 0-1), norm:MEAN:SD, "
+                   "truncnorm:LO:HI:MEAN:SD, lognorm:LN_MEAN:LN_SD (of the natural log), "
+                   "weibull:SHAPE:SCALE[:LOC]; Morris: uniform only")
     s.add_argument("--method", default="sobol", choices=("sobol", "morris"),
                    help="Sobol indices with Saltelli sampling, or Morris elementary "
                    "effects (default sobol)")
@@ -28,7 +34,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=1, help="seed of the sample (keep it to resume; "
                    "default 1)")
     s.add_argument("--store", default="sensitivity.zarr", metavar="PATH.zarr",
-                   help="the sweep store of the sample points (default sensitivity.zarr)")
+                   help="the sweep store of the sample points, and of the indices (its "
+                   "group 'sensitivity': xr.open_zarr(PATH, group='sensitivity')); default "
+                   "sensitivity.zarr")
     s.add_argument("--new-store", action="store_true", help="replace a store of another study")
     s.add_argument("--scheduler", help="'serial', or a dask scheduler address; default: a "
                    "local cluster")
@@ -55,5 +63,8 @@ def run(args) -> int:
                          | {"param": list(ds["param"].values),
                             "output": list(ds["output"].values)}))
     else:
-        print(ds.to_dataframe().to_string())
+        print(ds.drop_vars("distribution").to_dataframe().to_string())
+        print("distributions: " + ", ".join(
+            f"{p}={d}" for p, d in zip(ds["param"].values, ds["distribution"].values,
+                                       strict=True)))
     return 0

@@ -49,7 +49,7 @@ from .point import COLUMNS, record_periods, run_point
 from .progress import Progress
 from .result import SweepResult, read_csv, read_poincare_csv, read_result
 from .run import local_cluster, run_sweep
-from .sensitivity import parse_ranges, plot_indices, run_sensitivity
+from .sensitivity import Dist, open_indices, parse_ranges, plot_indices, run_sensitivity
 from .settings import INPUTS, SweepSettings, outside_validity, sweepable
 from .store import Store, StoreError, open_dataset
 from .study import StudyRun, run_grid
@@ -59,6 +59,7 @@ __all__ = [
     "SweepSettings", "local_cluster", "open_dataset", "outside_validity",
     "parse_values", "plot_maps", "plot_sweep", "read_csv", "read_poincare_csv", "read_result",
     "record_periods", "run_grid", "run_point", "run_sweep",
-    "sweep_title", "sweepable", "parse_ranges", "plot_indices", "run_sensitivity",
+    "sweep_title", "sweepable", "Dist", "open_indices", "parse_ranges", "plot_indices",
+    "run_sensitivity",
 ]
 

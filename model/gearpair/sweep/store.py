@@ -145,19 +145,22 @@ def _lock(path: Path) -> _Lock | None:
 
 
 def _remove_unfinished(path: Path) -> None:
-    """Remove the half-made stores a killed creation of ``path`` left beside it
-    (``.NAME.creating-PID`` of a process that is gone): never a store, which is only ever
-    renamed into place complete."""
-    for tmp in path.parent.glob(f".{path.name}.creating-*"):
-        try:
-            pid = int(tmp.name.rpartition("-")[2])
-            os.kill(pid, 0)
-        except ValueError:
-            continue
-        except ProcessLookupError:
-            shutil.rmtree(tmp, ignore_errors=True)
-        except OSError:  # alive, another user's
-            continue
+    """Remove what a killed process left beside the store ``path``: half-made stores of a
+    creation (``.NAME.creating-PID``), a replaced store not yet deleted
+    (``.NAME.replaced-PID``), half-made or replaced groups (``.NAME.group-PID``,
+    ``.NAME.group-old-PID``; `Store.put_dataset`), each of a process that is gone: never a
+    store or a group, which are only ever renamed into place complete."""
+    for kind in ("creating", "replaced", "group"):
+        for tmp in path.parent.glob(f".{path.name}.{kind}-*"):
+            try:
+                pid = int(tmp.name.rpartition("-")[2])
+                os.kill(pid, 0)
+            except ValueError:
+                continue
+            except ProcessLookupError:
+                shutil.rmtree(tmp, ignore_errors=True)
+            except OSError:  # alive, another user's
+                continue
 
 
 def consolidate(path: str | Path) -> None:
@@ -453,6 +456,33 @@ class Store:
         runs.append(info)
         self.group.attrs["runs"] = runs
         consolidate(self.path)  # the new attributes (and a store that had none gets it)
+
+    def put_dataset(self, name: str, ds) -> None:
+        """Write the ``xarray.Dataset`` ``ds`` into the store as its group ``name``
+        (``xr.open_zarr(path, group=name)`` reads it), replacing a group of that name, whole
+        or not at all: it is written as a Zarr store beside this one, renamed into place
+        (the old group renamed away first, then deleted), and the consolidated metadata
+        rewritten. A killed process leaves the old group or the new one (and what it left
+        beside the store goes at the next creation or `put_dataset`)."""
+        if not name.isidentifier() or name in self.group.array_keys():
+            raise StoreError(f"store {self.path}: {name!r} cannot be a group's name here")
+        _remove_unfinished(self.path)
+        pid = os.getpid()
+        tmp = self.path.parent / f".{self.path.name}.group-{pid}"
+        old = self.path.parent / f".{self.path.name}.group-old-{pid}"
+        for p in (tmp, old):
+            shutil.rmtree(p, ignore_errors=True)
+        try:
+            ds.to_zarr(tmp, mode="w-", zarr_format=3, consolidated=False)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        dest = self.path / name
+        if dest.exists():
+            os.rename(dest, old)
+        os.rename(tmp, dest)
+        shutil.rmtree(old, ignore_errors=True)
+        consolidate(self.path)
 
     # -- reading ----------------------------------------------------------------------------
     def records(self) -> list[dict[str, Any]]:

@@ -64,7 +64,7 @@ def test_build_fmu_announces_the_engine_compile_before_it_starts(monkeypatch, tm
 
     seen = []
 
-    def write_engine(folder, path=None):  # stands in for the compile: what was said before?
+    def write_engine(folder, path=None, **target):  # the compile: what was said before it?
         seen.append(capsys.readouterr().err)
         raise RuntimeError("stop here")
 

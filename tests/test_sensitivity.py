@@ -274,3 +274,27 @@ def test_a_parameter_the_model_cannot_depend_on_has_total_index_zero(tmp_path):
     st = ds["ST"].sel(param="poisson").values
     assert np.all(np.abs(st) <= ds["ST_conf"].sel(param="poisson").values + 1e-12), st
     assert np.all(ds["ST"].sel(param="speed_rpm").values > 0.5), ds["ST"].values
+
+
+def test_cli_takes_the_sweep_settings_and_distributions(tmp_path, capsys):
+    """``gearpair sensitivity`` holds what ``gearpair sweep`` holds (effects, durations,
+    --set), records it in the store, and reads a distribution."""
+    import json
+
+    from gearpair.cli import main
+    from gearpair.sweep import Store
+
+    store = tmp_path / "c.zarr"
+    argv = ["sensitivity", "mu=0.01:0.05", "torque=1000:4000",
+            "speed_rpm=truncnorm:100:600:350:150", "-n", "8", "--outputs", "stick_ratio",
+            "--store", str(store), "--scheduler", "serial", "--stiffness", "rectangular",
+            "--backlash", "5e-05", "--kept-periods", "20", "--set", "kb1=5e7", "--json"]
+    with sa.model_hook(_ishigami):
+        assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["param"] == ["mu", "torque", "speed_rpm"] and len(out["ST"][0]) == 3
+    st = Store.open(store).settings
+    assert (st.stiffness, st.backlash, st.kept_periods, st.params) == \
+        ("rectangular", 5e-05, 20, (("kb1", 5e7),))
+    assert list(sa.open_indices(store)["distribution"].values)[2] == \
+        "truncnorm:100:600:350:150"

@@ -42,6 +42,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "local cluster")
     s.add_argument("--workers", type=int, help="local worker processes (default: one per "
                    "core)")
+    from .sweep import add_settings_options
+
+    add_settings_options(s)  # what every point holds, as in gearpair sweep
     s.add_argument("--plot", metavar="FILE.png", help="bar chart of the indices")
     s.add_argument("--json", action="store_true", help="print the indices as JSON")
     return s
@@ -49,10 +52,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     from ..sweep.sensitivity import parse_ranges, plot_indices, run_sensitivity
+    from .sweep import settings_from_args
 
     ranges = parse_ranges(args.ranges)
     outputs = tuple(o.strip() for o in args.outputs.split(",") if o.strip())
-    ds = run_sensitivity(ranges, args.method, args.n, outputs, store=args.store,
+    settings = settings_from_args(args)
+    ds = run_sensitivity(ranges, args.method, args.n, outputs, settings, store=args.store,
                          second_order=args.second_order, seed=args.seed,
                          scheduler=args.scheduler, workers=args.workers,
                          new_store=args.new_store)

@@ -19,7 +19,6 @@ from .common import add_effect_options, effects_from_args, parse_set
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Register ``gearpair sweep`` on an argparse subparsers object."""
-    d = SweepSettings()
     s = sub.add_parser(
         "sweep", help="stick/contact-loss ratios and bifurcation data over parameter grids "
         "(dask), stored as the points finish, resumable",
@@ -30,8 +29,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
                     "PREFIX.json and PREFIX.png; a grid PREFIX.json and maps PREFIX_map*.png. "
                     "Examples: gearpair sweep speed_rpm 5:600:300 --out speed; gearpair sweep "
                     "speed_rpm=5:600:120 torque=1000:4000:7 mu=0.01,0.02,0.03 --out grid")
-    from ..params import RTOL_MAX
-
     s.add_argument("grid", nargs="*", metavar="PARAM VALUES | NAME=VALUES",
                    help="what to sweep: PARAM VALUES (one parameter) or NAME=VALUES ... (the "
                    "full factorial). A name is speed_rpm (r/min), torque (N.m) or a "
@@ -63,6 +60,21 @@ def add_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--retries", type=int, default=1, metavar="N",
                    help="reruns of a failed point, each with a ten times tighter rtol; "
                    "default 1")
+    add_settings_options(s)
+    s.add_argument("--no-plot", action="store_true", help="do not draw PREFIX.png; default: "
+                   "draw it (needs matplotlib)")
+    s.add_argument("--quiet", action="store_true", help="no progress bar and no messages on "
+                   "stderr (errors still go there)")
+    return s
+
+
+def add_settings_options(s) -> None:
+    """The options of what every point holds (`SweepSettings`): the held torque and speed,
+    ``--set``, the engine's tolerance, the durations and the effects; `settings_from_args`
+    reads them (``gearpair sweep`` and ``gearpair sensitivity``)."""
+    from ..params import RTOL_MAX
+
+    d = SweepSettings()
     s.add_argument("--torque", type=float, default=d.torque, metavar="NM",
                    help=f"driving torque on gear 1 when not swept (N.m); default {d.torque:g}")
     s.add_argument("--speed-rpm", type=float, default=d.speed_rpm, metavar="RPM",
@@ -89,11 +101,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    f"cut, never below {d.min_periods}); default {d.max_time:g}")
     add_effect_options(s.add_argument_group("effects of every point (docs/scenes.md "
                                             "[effects])"))
-    s.add_argument("--no-plot", action="store_true", help="do not draw PREFIX.png; default: "
-                   "draw it (needs matplotlib)")
-    s.add_argument("--quiet", action="store_true", help="no progress bar and no messages on "
-                   "stderr (errors still go there)")
-    return s
 
 
 def settings_from_args(args) -> SweepSettings:

@@ -313,3 +313,154 @@ def test_the_logger_type_is_fmi3s(md3, unzip3):
     assert any("tolerance 1e-06 is not used" in m for _, m in s.messages), s.messages
     assert isinstance(s.fmu.logMessage, fmi3LogMessageCallback)
     s.fmu.freeInstance()
+
+
+# -- early return at contact events --------------------------------------------------------------
+H = 1e-4
+INSTANT = ("dte", "mesh_force", "friction_force", "contact_state", "output_torque",
+           "input_torque_reaction", "input_torque", "gear1_speed", "gear2_speed",
+           "sliding_velocity")  # the outputs of an instant (not of a step)
+FRICTION = ("off", "nominal", "regularized", "stick_slip")
+
+
+def _off_grid(t: np.ndarray) -> np.ndarray:
+    """The rows fmpy recorded between communication points: at early returns."""
+    return np.abs(t / H - np.round(t / H)) > 1e-6
+
+
+def _api_event_times(start: dict, t_end: float) -> list[float]:
+    """The Python API's fast engine on the same grid, without early return: the time of the
+    change of the contact state in each step that has one switch, from the step's exact
+    fractions in stick, apart or on the back flank."""
+    from gearpair import Effects, GearParams
+    from gearpair import stepblock as sb
+    from gearpair.fast import FastEngine
+
+    start = dict(start)
+    torque, speed = start.pop("torque", 3900.0), start.pop("speed", 100 * RPM)
+    rtol = start.pop("rtol", 1e-8)
+    fx = {"friction": FRICTION[start.pop("friction_law", 3)]}
+    if "backlash" in start:
+        fx["backlash"] = start.pop("backlash")
+    eng = FastEngine(GearParams(**start), Effects(**fx), rtol=rtol)
+    eng.reset(0.0, torque, speed)
+    rec = {n: sb.X_REC + k for k, n in enumerate(sb.STEP_RECORD)}
+    x, times, cs0 = eng.block, [], eng.outputs().contact_state
+    in_state = {2: "stick_fraction", 0: "separation_fraction", 3: "back_fraction"}
+    for k in range(round(t_end / H)):
+        eng.advance_values((k + 1) * H, torque, speed)
+        cs = int(x[rec["contact_state"]])
+        if cs != cs0 and x[rec["n_events"]] == 1:
+            if cs in in_state:  # the time in the new state ends the step
+                times.append((k + 1) * H - x[rec[in_state[cs]]] * H)
+            else:  # into slip: the time in the old state began the step
+                times.append(k * H + x[rec[in_state[cs0]]] * H)
+        cs0 = cs
+    return times
+
+
+@pytest.mark.parametrize("scene", ["stick_slip", "contact_loss"])
+def test_early_return_at_the_engines_own_event_times(fmu_path, fmu3_path, md, scene):
+    start, t_end = SCENES[scene]
+    kw = dict(stop_time=t_end, output_interval=H, start_values=start, output=_outputs(md))
+    r2 = fmpy.simulate_fmu(str(fmu_path), **kw)
+    r3 = fmpy.simulate_fmu(str(fmu3_path), early_return_allowed=True, use_event_mode=True,
+                           **kw)
+    off = _off_grid(r3["time"])
+    rows = np.nonzero(off)[0]
+    # a row at the early return and one after Event Mode, at the same time and state
+    assert len(rows) >= 4 and len(rows) % 2 == 0
+    assert np.array_equal(rows[1::2], rows[0::2] + 1)
+    events = r3["time"][rows[0::2]]
+    assert np.array_equal(events, r3["time"][rows[1::2]])
+    for name in INSTANT:
+        assert np.array_equal(r3[name][rows[0::2]], r3[name][rows[1::2]]), name
+    # each is a change of the contact state since the row before
+    cs = r3["contact_state"]
+    assert all(cs[i] != cs[i - 1] for i in rows[0::2])
+    # at the times the engine locates them without early return (Python API, same scene)
+    api = _api_event_times(start, t_end)
+    assert len(api) >= min(3, len(events))
+    for te in api:
+        assert np.min(np.abs(events - te)) <= 1e-12, te
+    # between the events, GearPair.fmu's outputs at the same times, to rounding
+    grid = r3[~off]
+    assert np.array_equal(grid["time"], r2["time"])
+    for name in INSTANT:
+        scale = max(float(np.max(np.abs(r2[name]))), 1e-300)
+        assert np.max(np.abs(grid[name] - r2[name])) <= 1e-9 * scale, name
+
+
+def test_early_return_without_event_mode_goes_on_from_there(fmu3_path, md):
+    """A master that allows early return and never enters Event Mode: the next step starts
+    at lastSuccessfulTime and the rows are those of a master that does."""
+    start, t_end = SCENES["contact_loss"]
+    kw = dict(stop_time=t_end, output_interval=H, start_values=start, output=_outputs(md))
+    with_event = fmpy.simulate_fmu(str(fmu3_path), early_return_allowed=True,
+                                   use_event_mode=True, **kw)
+    without = fmpy.simulate_fmu(str(fmu3_path), early_return_allowed=True, **kw)
+    keep = np.ones(len(with_event), dtype=bool)
+    keep[np.nonzero(_off_grid(with_event["time"]))[0][1::2]] = False  # the Event Mode rows
+    assert np.array_equal(without["time"], with_event["time"][keep])
+    for name in _outputs(md):
+        assert np.array_equal(without[name], with_event[name][keep]), name
+
+
+# -- a C host: two instances in two threads, no Python ----------------------------------------
+HOSTS = ROOT / "examples" / "hosts"
+
+
+def _host_args(md3, scene: str, mode: int, threads: int) -> list[str]:
+    start, t_end = SCENES[scene]
+    vr = {v.name: v.valueReference for v in md3.modelVariables}
+    types = {v.name: v.type for v in md3.modelVariables}
+    args = ["GearPair3", md3.guid, repr(H), repr(t_end)]
+    for name, value in start.items():
+        flag = {"Float64": "-r", "Int32": "-i", "Enumeration": "-e", "Boolean": "-b"}
+        args += [flag[types[name]], f"{vr[name]}={value!r}"]
+    reals = [n for n in INSTANT if types[n] == "Float64"]
+    return args + ["-o", ",".join(str(vr[n]) for n in reals), "-n", str(vr["contact_state"]),
+                   "-E", str(mode), "-j", str(threads)]
+
+
+def _host_rows(text: str) -> dict[int, list[list[str]]]:
+    out: dict[int, list[list[str]]] = {}
+    for line in text.splitlines():
+        if line.startswith("# instance "):
+            rows = out.setdefault(int(line.split()[-1]), [])
+        else:
+            rows.append(line.split(","))
+    return out
+
+
+def _fmpy_rows(res) -> list[tuple]:
+    reals = [n for n in INSTANT if n != "contact_state"]
+    return [(float(r["time"]), *(float(r[n]) for n in reals), int(r["contact_state"]))
+            for r in res]
+
+
+@pytest.fixture(scope="module")
+def host3(tmp_path_factory) -> Path:
+    from test_hosts import compile_c_host
+
+    return compile_c_host(HOSTS / "fmi3_host.c", tmp_path_factory.mktemp("host3") / "fmi3_host")
+
+
+@pytest.mark.parametrize("scene", ["stick_slip", "contact_loss"])
+def test_c_host_two_instances_in_two_threads_as_fmpy(fmu3_path, md3, unzip3, host3, scene):
+    start, t_end = SCENES[scene]
+    outs = list(INSTANT)
+    ref = fmpy.simulate_fmu(str(fmu3_path), early_return_allowed=True, use_event_mode=True,
+                            stop_time=t_end, output_interval=H, start_values=start,
+                            output=outs)
+    proc = subprocess.run([str(host3), str(unzip3), *_host_args(md3, scene, 1, 2)],
+                          env={"PATH": "/usr/bin:/bin"}, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    runs = _host_rows(proc.stdout)
+    assert sorted(runs) == [0, 1] and runs[0] == runs[1]  # threads: the same bits
+    kinds = [r[0] for r in runs[0]]
+    assert kinds[0] == "init" and "early" in kinds and kinds.count("early") == \
+        kinds.count("event")
+    got = [(float(r[1]), *(float(x) for x in r[2:-1]), int(r[-1])) for r in runs[0]]
+    assert got == _fmpy_rows(ref)  # every row, early returns included, bit for bit

@@ -242,10 +242,13 @@ fmi2Status model_do_step(Instance *inst, double t, double h) {
     if (g->py) return py_slave_step(g->py, v, t, h);
     double *x = gp_model_block(g->fast);
     put_inputs(v, x);
+    gp_model_early_return(g->fast, inst->early_return);
     int64_t code = gp_model_step(g->fast, t, h);
     if (code == GP_STEP_DONE) {
         take_outputs(v, x);
         g->stepped = 1;
+        if (inst->early_return && gp_model_time(g->fast) < t + h)
+            inst->step_end = gp_model_time(g->fast); /* stopped at a contact event */
         return fmi2OK;
     }
     char why[2048], r1[40], r2[40];

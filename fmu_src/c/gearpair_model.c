@@ -16,6 +16,7 @@ struct GpModel {
     size_t state_words;
     double block[GP_N_X];
     int lti; /* the exact propagator steps this model */
+    int early; /* steps may return early at a contact event (FMI 3) */
     int64_t n; /* tracked tooth pairs */
 };
 
@@ -111,10 +112,12 @@ int64_t gp_model_step(GpModel *m, double t, double h) {
     x[GP_X_TCHK] = t;
     x[GP_X_H] = h;
     x[GP_X_TEND] = t + h;
-    x[GP_X_FMU] = 1.0;
+    x[GP_X_FMU] = m->early ? 2.0 : 1.0;
     int64_t table = (int64_t)(intptr_t)m->table;
     return m->lti ? gearpair_step_lti(table) : gearpair_step(table);
 }
+
+void gp_model_early_return(GpModel *m, int on) { m->early = on != 0; }
 
 double gp_model_time(const GpModel *m) {
     return m->state[GP_STATE_OFF_A[GP_CLOCK] + GP_STATE_OFF_B[GP_CLOCK] * m->n + GP_T_T];

@@ -29,8 +29,11 @@ double *gp_model_block(GpModel *m);
 int64_t gp_model_init(GpModel *m, double t0);
 
 /* One communication step from t over h with the block's inputs (an FMU's doStep: refused
- * when t is not the engine's time, rolled back when it fails). GP_STEP_* code. */
+ * when t is not the engine's time, rolled back when it fails). GP_STEP_* code. With early
+ * return on (gp_model_early_return), a step that is done may end at the first change of
+ * the contact state inside it, the switch applied: gp_model_time says where. */
 int64_t gp_model_step(GpModel *m, double t, double h);
+void gp_model_early_return(GpModel *m, int on);
 
 /* The engine's time (s), the summary of its last step (GP_O_* slots: why it failed) and
  * the most contact switches it takes in one step. */

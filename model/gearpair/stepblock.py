@@ -10,8 +10,10 @@ engine).
 Slots (`X_*`): X_TEND the end of the step (s); X_TCHK, X_H the FMU's communication point and
 step size (s); X_TORQUE (N.m), X_SPEED, X_LOAD (rad/s) the inputs, X_LOADON 1 when the load
 speed drives the load shaft; X_FMU 1 for an FMU's doStep (the communication point and the
-inputs checked, a failed or non-finite step rolled back); X_BAD the record slot of the first
-value that is not finite; X_REC the first slot of the step record.
+inputs checked, a failed or non-finite step rolled back), 2 for one that may return early at
+the first change of the contact state inside it (FMI 3; the engine's time then says where it
+stopped); X_BAD the record slot of the first value that is not finite; X_REC the first slot
+of the step record.
 """
 
 from __future__ import annotations

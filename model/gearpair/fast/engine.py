@@ -41,6 +41,7 @@ from .layout import (
     I_NIX,
     J_NEVTOT,
     J_NPREV,
+    J_RESUME,
     J_SEP,
     L_NSLOT,
     L_SCRATCH,
@@ -208,6 +209,7 @@ class FastEngine(Engine):
             "n_events_total": int(mode[J_NEVTOT]),
             "h": float(st[T_H]) if st[T_H] > 0 else None,
             "prev_active": None if npv < 0 else [int(j) for j in hs.prev_active[:npv]],
+            "resume": bool(mode[J_RESUME]),  # inside a segment after an FMU's early return
             "last": self._last,
         }
 
@@ -238,6 +240,7 @@ class FastEngine(Engine):
         else:
             mode[J_NPREV] = len(prev)
             hs.prev_active[:len(prev)] = np.asarray(prev, dtype=np.int64)
+        mode[J_RESUME] = int(bool(state.get("resume", False)))
         self._last = state.get("last")
         self._stale()
 

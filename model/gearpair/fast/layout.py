@@ -56,9 +56,11 @@ N_SC = 17
 # T_LAST0, T_LAST1: start and end of the last step (nan before one: `FastEngine.get_state`)
 T_T, T_S, T_H, T_STICK, T_SEP, T_TORQUE, T_SPEED, T_REL, T_BACK, T_LAST0, T_LAST1 = range(11)
 N_ST = 11
-# J_SEP: 0 drive flank, 1 apart, 2 back flank; J_REL: 1 + the pair released at time T_REL
-J_SEP, J_NPREV, J_NEVTOT, J_REL = range(4)
-N_IST = 4
+# J_SEP: 0 drive flank, 1 apart, 2 back flank; J_REL: 1 + the pair released at time T_REL;
+# J_RESUME: 1 when the last step ended early inside a segment (`loop.segment`, an FMU's early
+# return at a contact event): the next one resumes that segment, its slip directions as set
+J_SEP, J_NPREV, J_NEVTOT, J_REL, J_RESUME = range(5)
+N_IST = 5
 N_Q = 6
 N_Y = 18  # q, q', 4 energy quadratures (input, damping loss, friction work, parametric),
 Y_A, Y_AD = 16, 17  # load-shaft end a (m, u2 coordinates) and its rate a' (held per step)

@@ -50,6 +50,7 @@ from .layout import (
     J_NEVTOT,
     J_NPREV,
     J_REL,
+    J_RESUME,
     J_SEP,
     KIND_CONSTANT,
     KIND_TABLE,
@@ -275,7 +276,11 @@ def segment_start(md, wk, hs, tb):
     nprev = hs.mode[J_NPREV]
     if nprev >= 0:
         release_departed(md, wk, hs, nact)
-    settle(md, hs, wk.active, nact, st[T_S], speed, hs.mode[J_SEP])
+    if hs.mode[J_RESUME] == 0:  # else the segment goes on after an early return: its pairs'
+        # slip directions are those the last switch set (a pair just released slips the
+        # way its friction pushed, whatever the sign of its velocity, 0 to rounding)
+        settle(md, hs, wk.active, nact, st[T_S], speed, hs.mode[J_SEP])
+    hs.mode[J_RESUME] = 0
     if nprev >= 0 and md.flag[I_KIND] != KIND_CONSTANT and not same_pairs(wk, hs, nact):
         book_pair_change(md, wk, hs, nact)
     return nact
@@ -293,10 +298,41 @@ def same_pairs(wk, hs, nact):
 
 
 @jit_hot
-def segment(md, wk, hs, tb, lti):
-    """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
+def keep_pairs(wk, hs, nact):
+    """The segment's pairs become those of the last segment."""
+    for i in range(nact):
+        hs.prev_active[i] = wk.active[i]
+    hs.mode[J_NPREV] = nact
+
+
+@jit
+def stops_early(wk, hs, nact, early, cs):
+    """Whether an early return ends the step here: the contact state (`contact_state`) is no
+    longer ``cs`` and the time is strictly inside ``early`` = (step start, step end) (NaN:
+    no early return). Returns (stop, the contact state now). Called at switches only (and
+    segment starts) of a step that may return early: not inlined into the hot loop."""
+    c = contact_state(wk, hs, nact)
+    t = hs.clock[T_T]
+    return c != cs and early[0] < t < early[1], c
+
+
+@jit_hot
+def segment(md, wk, hs, tb, lti, early, cs):
+    """One segment between known boundaries (ReferenceEngine.advance's loop body).
+
+    ``early``, ``cs``: `advance`'s early return; the contact state before the segment.
+    Returns (stopped, the contact state): stopped at the first change of the contact state
+    (at a switch, or at the segment's start when a pair leaving released a stick), with the
+    segment's pairs kept and J_RESUME set for the step that goes on from there."""
     nact = segment_start(md, wk, hs, tb)
     summ = wk.summary
+    watch = early[0] == early[0]  # not NaN
+    if watch:
+        stop, cs = stops_early(wk, hs, nact, early, cs)
+        if stop:
+            keep_pairs(wk, hs, nact)
+            hs.mode[J_RESUME] = 1
+            return True, cs
     while hs.clock[T_T] < tb:
         if lti is None:  # numba prunes the other branch for the type of lti
             r = piece(md, wk, hs, nact, tb)
@@ -305,15 +341,20 @@ def segment(md, wk, hs, tb, lti):
         if r < 0:
             if r == -1:
                 summ[O_STATUS] = STATUS_STEP
-            return
+            return False, cs
         summ[O_NEV] += r
         if summ[O_NEV] > md.flag[I_MAXEV]:
             summ[O_STATUS] = STATUS_EVENTS
             summ[O_TFAIL] = hs.clock[T_T]
-            return
-    for i in range(nact):
-        hs.prev_active[i] = wk.active[i]
-    hs.mode[J_NPREV] = nact
+            return False, cs
+        if watch and r == 1:
+            stop, cs = stops_early(wk, hs, nact, early, cs)
+            if stop:
+                keep_pairs(wk, hs, nact)
+                hs.mode[J_RESUME] = 1
+                return True, cs
+    keep_pairs(wk, hs, nact)
+    return False, cs
 
 
 @jit_hot
@@ -388,7 +429,7 @@ def next_boundary(md, wk, hs, noff, span, last_b):
 
 
 @jit_hot
-def advance(md, wk, hs, t_end, torque, speed, lti):
+def advance(md, wk, hs, t_end, torque, speed, lti, early):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end.
 
     ``lti``: None for an engine without the exact propagator (numba then compiles no
@@ -396,6 +437,11 @@ def advance(md, wk, hs, t_end, torque, speed, lti):
     (`native.step`, `run_grid`): a compiled function of its own would be optimized by LLVM
     once more with everything it calls, and the grid would pass the records by value per
     point.
+
+    ``early``: (NaN, NaN), or for an FMU's early return (the step's start, t_end): the
+    advance then ends at the first change of the contact state strictly inside the step,
+    with the switch applied (`segment`); the clock says where. Until that change it computes
+    what it computes without early return, to the bit.
     """
     st, summ = hs.clock, wk.summary
     for i in range(N_OUT):
@@ -415,13 +461,19 @@ def advance(md, wk, hs, t_end, torque, speed, lti):
     s_tol = abs(v1) * 16.0 * 2.220446049250313e-16 * max(1.0, abs(t_end))
     s_lim = s_end + s_tol if speed > 0.0 else s_end - s_tol
     last_b = np.nan
+    cs = -1
+    if early[0] == early[0]:  # the contact state at the step's start
+        cs = contact_state(wk, hs, current_active(md, wk, hs))
     while True:
         tb, ib, last_b, repeat = next_boundary(md, wk, hs, noff,
                                                (t_start, s_start, t_end, s_lim), last_b)
         if repeat:
             continue
-        segment(md, wk, hs, tb, lti)
+        stopped, cs = segment(md, wk, hs, tb, lti, early, cs)
         if summ[O_STATUS] != STATUS_OK:
+            return
+        if stopped:
+            hs.mode[J_NEVTOT] += int(summ[O_NEV])
             return
         if ib < 0:
             break
@@ -506,7 +558,7 @@ def run_grid(md, wk, hs, grid, inputs, rec, lti):
     for i in range(1, n):
         t0, stick0, sep0, back0 = st[T_T], st[T_STICK], st[T_SEP], st[T_BACK]
         y[Y_AD] = yad[i - 1]
-        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1], lti)
+        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1], lti, (np.nan, np.nan))
         if summ[O_STATUS] != STATUS_OK:
             return i
         outputs_now(md, wk, hs)

@@ -17,6 +17,9 @@ communication point within 1e-9 relative of the engine's time, inputs in range: 
 on an engine failure or a non-finite value the state of the step start again
 (`STEP_FAILED`, `STEP_NONFINITE`; the record keeps the last good step's values). Without
 ``X_FMU`` it advances as `FastEngine.advance_values` always did: no checks, no rollback.
+``X_FMU`` = 2 is an FMU's doStep that may return early (FMI 3): the advance ends at the first
+change of the contact state strictly inside the step (`loop.segment`), the engine's time
+says where, and the record and figures are those of the step up to there.
 """
 
 from __future__ import annotations
@@ -169,6 +172,7 @@ def step(tab, lti):
     md, wk, hs, (x, state, saved) = records(tab)
     st, mp = hs.clock, md.par
     fmu = x[X_FMU] != 0.0
+    early = (st[T_T], x[X_TEND]) if x[X_FMU] == 2.0 else (np.nan, np.nan)
     if fmu:
         if refused(x, st):
             return STEP_REFUSED
@@ -178,7 +182,7 @@ def step(tab, lti):
     start = (st[T_T], st[T_STICK], st[T_SEP], st[T_BACK])
     hs.y[Y_AD] = 0.0 if x[X_LOADON] == 0.0 else \
         -mp[P_RB2] * (x[X_LOAD] - speed * mp[P_RATIO])
-    advance(md, wk, hs, t_end, x[X_TORQUE], speed, lti)
+    advance(md, wk, hs, t_end, x[X_TORQUE], speed, lti, early)
     code = STEP_FAILED
     if wk.summary[O_STATUS] == STATUS_OK:
         outputs_now(md, wk, hs)
@@ -188,7 +192,7 @@ def step(tab, lti):
         if bad < 0:
             code = STEP_DONE
             st[T_LAST0] = start[0]
-            st[T_LAST1] = t_end
+            st[T_LAST1] = st[T_T]  # t_end, or where an early return stopped
             o, n_o = wk.outputs, wk.outputs.shape[0]
             for m in range(n_o):
                 x[X_REC + m] = o[m]

@@ -103,6 +103,19 @@ def test_morris_ranks_ishigami(tmp_path):
     assert list(np.argsort(-mu)) == [1, 0, 2], mu
 
 
+def test_an_output_the_same_at_every_point_has_no_indices(tmp_path):
+    """A constant output (e.g. no contact loss anywhere) has no variance to share out: NaN
+    and a note, not SALib's zeros that would read as 'no parameter matters'."""
+    with sa.model_hook(lambda p: {**_ishigami(p), "contact_loss_ratio": 0.0}):
+        ds = sa.run_sensitivity(RANGES, "sobol", 8, ("stick_ratio", "contact_loss_ratio"),
+                                store=tmp_path / "c.zarr", scheduler="serial",
+                                progress=False, second_order=True)
+    assert np.all(np.isnan(ds["ST"].sel(output="contact_loss_ratio").values))
+    assert np.all(np.isnan(ds["S2"].sel(output="contact_loss_ratio").values))
+    assert np.all(np.isfinite(ds["ST"].sel(output="stick_ratio").values))
+    assert ds.attrs["constant_outputs"].startswith("contact_loss_ratio = 0 at every point")
+
+
 def test_chart(sobol, tmp_path):
     out = sa.plot_indices(sobol[0], tmp_path / "s.png")
     assert out.stat().st_size > 1000

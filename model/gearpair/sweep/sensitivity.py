@@ -338,7 +338,9 @@ def run_sensitivity(ranges, method: str = "sobol", n: int = 256,
         dims ``output`` x ``param``: Sobol ``S1``, ``S1_conf``, ``ST``, ``ST_conf`` (half
         widths of the intervals; ``S2``, ``S2_conf`` over ``param`` x ``param2`` when
         asked), Morris ``mu_star``, ``mu_star_conf``, ``sigma``; ``distribution`` (param):
-        each parameter's `Dist` as text; attrs: method, n, points, conf_level, seed. The
+        each parameter's `Dist` as text; attrs: method, n, points, conf_level, seed, and
+        ``constant_outputs`` naming an output that is the same at every point (its indices
+        are NaN: there is no variance to share out, e.g. a contact-loss ratio 0). The
         same Dataset is written into the store as its group ``sensitivity``
         (`open_indices`; ``xr.open_zarr(store, group="sensitivity")``), replacing the
         indices an earlier call wrote there.
@@ -400,11 +402,20 @@ def _analyse(dists, method, x, ys, n, second_order, conf_level, seed, store):
     names = list(dists)
     outs = list(ys)
     res = []
+    constant = []
     for o in outs:
         y = ys[o]
         if not np.all(np.isfinite(y)):
             raise ValueError(f"output {o}: {np.count_nonzero(~np.isfinite(y))} points have no "
                              "value; choose another output")
+        if np.all(y == y[0]):  # no variance to share out (SALib would say 0 for all)
+            constant.append(f"{o} = {y[0]:g}")
+            nan = np.full(len(names), np.nan)
+            res.append({"S1": nan, "S1_conf": nan, "ST": nan, "ST_conf": nan,
+                        "S2": np.full((len(names),) * 2, np.nan),
+                        "S2_conf": np.full((len(names),) * 2, np.nan),
+                        "mu_star": nan, "mu_star_conf": nan, "sigma": nan})
+            continue
         if method == "sobol":
             from SALib.analyze import sobol as a_sobol
 
@@ -429,6 +440,9 @@ def _analyse(dists, method, x, ys, n, second_order, conf_level, seed, store):
     ds = xr.Dataset(data, coords={"output": text(outs), "param": text(names),
                                   **({"param2": text(names)} if "S2" in data else {})})
     _describe(ds, conf_level)
+    if constant:
+        ds.attrs["constant_outputs"] = ", ".join(constant) + " at every point: no variance, " \
+            "no indices (NaN)"
     ds.attrs.update(method=method, n=int(n), points=int(x.shape[0]),
                     conf_level=float(conf_level), seed=int(seed), store=str(store),
                     title=f"gearpair sensitivity: {method} indices of "

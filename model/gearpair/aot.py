@@ -20,8 +20,9 @@ code. What remains needs only ``fmod`` and ``memset`` from the C library (`LIBC`
 
 The same linked module, emitted for `WIN64_TRIPLE` (``win64=True``), is the engine of the
 FMU's Windows binary: LLVM's C calling convention is the target's (Win64 there), the data
-layout the target's, and the COFF object needs the same two functions (mingw-w64 links
-them statically). numba compiles once for both (`build_objects`); the host's object keeps
+layout the target's, and the COFF object needs the same two functions and, where a stack
+frame exceeds 4 KB, LLVM's stack probe ``___chkstk_ms`` (`WIN64_LIBGCC`; mingw-w64 links
+all three statically). numba compiles once for both (`build_objects`); the host's object keeps
 its bytes.
 
 The header (`engine_header`) is generated from the same declarations the compiled code

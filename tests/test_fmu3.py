@@ -21,9 +21,13 @@ import pytest
 fmpy = pytest.importorskip("fmpy")
 pytest.importorskip("pythonfmu")
 
+import test_win64  # noqa: E402
 from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
+from test_win64 import compile_win64_host, winpath  # noqa: E402
+
+wine = test_win64.wine  # its fixture: a Windows program run under Wine
 
 pytestmark = pytest.mark.fmu
 
@@ -464,3 +468,19 @@ def test_c_host_two_instances_in_two_threads_as_fmpy(fmu3_path, md3, unzip3, hos
         kinds.count("event")
     got = [(float(r[1]), *(float(x) for x in r[2:-1]), int(r[-1])) for r in runs[0]]
     assert got == _fmpy_rows(ref)  # every row, early returns included, bit for bit
+
+
+def test_the_windows_binary_under_wine_prints_the_linux_bits(md3, unzip3, host3, tmp_path,
+                                                            wine):
+    """The x86_64-windows binary (when the build had mingw-w64): the same host built for
+    Windows, under Wine, prints what it prints with the Linux binary, early returns and
+    threads included."""
+    if not (unzip3 / "binaries" / "x86_64-windows" / "GearPair3.dll").is_file():
+        pytest.skip("GearPair3.fmu has no x86_64-windows binary (no mingw-w64 at the build)")
+    exe = compile_win64_host(HOSTS / "fmi3_host.c", tmp_path / "fmi3_host.exe")
+    args = _host_args(md3, "contact_loss", 1, 2)
+    lin = subprocess.run([str(host3), str(unzip3), *args], env={"PATH": "/usr/bin:/bin"},
+                         capture_output=True, text=True, timeout=120)
+    win = wine(exe, winpath(unzip3), *args)
+    assert lin.returncode == 0 and win.returncode == 0, win.stderr[-2000:]
+    assert "early" in win.stdout and win.stdout == lin.stdout

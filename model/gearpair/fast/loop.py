@@ -262,8 +262,9 @@ def book_pair_change(md, wk, hs, nact):
 
 
 @jit_hot
-def segment_start(md, wk, hs, tb):
-    """The pair set of the segment ending at tb, and what changes with it; returns its size."""
+def segment_start(md, wk, hs, tb, fresh):
+    """The pair set of the segment ending at tb, and what changes with it; returns its size.
+    ``fresh``: False when the segment goes on after an early return (`segment_early`)."""
     st = hs.clock
     speed = st[T_SPEED]
     s_mid = st[T_S] + md.par[P_RB1] * speed * (0.5 * (st[T_T] + tb) - st[T_T])
@@ -276,11 +277,10 @@ def segment_start(md, wk, hs, tb):
     nprev = hs.mode[J_NPREV]
     if nprev >= 0:
         release_departed(md, wk, hs, nact)
-    if hs.mode[J_RESUME] == 0:  # else the segment goes on after an early return: its pairs'
-        # slip directions are those the last switch set (a pair just released slips the
-        # way its friction pushed, whatever the sign of its velocity, 0 to rounding)
+    if fresh:  # else the pairs' slip directions are those the last switch set (a pair just
+        # released slips the way its friction pushed, whatever the sign of its velocity, 0
+        # to rounding)
         settle(md, hs, wk.active, nact, st[T_S], speed, hs.mode[J_SEP])
-    hs.mode[J_RESUME] = 0
     if nprev >= 0 and md.flag[I_KIND] != KIND_CONSTANT and not same_pairs(wk, hs, nact):
         book_pair_change(md, wk, hs, nact)
     return nact
@@ -305,36 +305,57 @@ def keep_pairs(wk, hs, nact):
     hs.mode[J_NPREV] = nact
 
 
-@jit
+@jit_hot
 def stops_early(wk, hs, nact, early, cs):
     """Whether an early return ends the step here: the contact state (`contact_state`) is no
-    longer ``cs`` and the time is strictly inside ``early`` = (step start, step end) (NaN:
-    no early return). Returns (stop, the contact state now). Called at switches only (and
-    segment starts) of a step that may return early: not inlined into the hot loop."""
+    longer ``cs`` and the time is strictly inside ``early`` = (step start, step end).
+    Returns (stop, the contact state now)."""
     c = contact_state(wk, hs, nact)
     t = hs.clock[T_T]
     return c != cs and early[0] < t < early[1], c
 
 
 @jit_hot
-def segment(md, wk, hs, tb, lti, early, cs):
-    """One segment between known boundaries (ReferenceEngine.advance's loop body).
-
-    ``early``, ``cs``: `advance`'s early return; the contact state before the segment.
-    Returns (stopped, the contact state): stopped at the first change of the contact state
-    (at a switch, or at the segment's start when a pair leaving released a stick), with the
-    segment's pairs kept and J_RESUME set for the step that goes on from there."""
-    nact = segment_start(md, wk, hs, tb)
+def segment(md, wk, hs, tb, lti):
+    """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
+    nact = segment_start(md, wk, hs, tb, True)
     summ = wk.summary
-    watch = early[0] == early[0]  # not NaN
-    if watch:
-        stop, cs = stops_early(wk, hs, nact, early, cs)
-        if stop:
-            keep_pairs(wk, hs, nact)
-            hs.mode[J_RESUME] = 1
-            return True, cs
     while hs.clock[T_T] < tb:
         if lti is None:  # numba prunes the other branch for the type of lti
+            r = piece(md, wk, hs, nact, tb)
+        else:
+            r = piece_exact(md, wk, hs, nact, tb)
+        if r < 0:
+            if r == -1:
+                summ[O_STATUS] = STATUS_STEP
+            return
+        summ[O_NEV] += r
+        if summ[O_NEV] > md.flag[I_MAXEV]:
+            summ[O_STATUS] = STATUS_EVENTS
+            summ[O_TFAIL] = hs.clock[T_T]
+            return
+    keep_pairs(wk, hs, nact)
+
+
+@jit
+def segment_early(md, wk, hs, tb, lti, early, cs):
+    """`segment` in a step that may return early (`advance`), ``cs`` the contact state before
+    the segment. Returns (stopped, the contact state): stopped at the first change of the
+    contact state (at a switch, or at the segment's start when a pair leaving released a
+    stick), with the segment's pairs kept and J_RESUME set for the step that goes on from
+    there. Until it stops it computes what `segment` computes. A function of its own, not
+    inlined: `segment`, the hot path, stays as it is without early return."""
+    fresh = hs.mode[J_RESUME] == 0
+    hs.mode[J_RESUME] = 0
+    nact = segment_start(md, wk, hs, tb, fresh)
+    summ = wk.summary
+    stop, cs = stops_early(wk, hs, nact, early, cs)
+    if stop:
+        keep_pairs(wk, hs, nact)
+        hs.mode[J_RESUME] = 1
+        return True, cs
+    while hs.clock[T_T] < tb:
+        if lti is None:
             r = piece(md, wk, hs, nact, tb)
         else:
             r = piece_exact(md, wk, hs, nact, tb)
@@ -347,7 +368,7 @@ def segment(md, wk, hs, tb, lti, early, cs):
             summ[O_STATUS] = STATUS_EVENTS
             summ[O_TFAIL] = hs.clock[T_T]
             return False, cs
-        if watch and r == 1:
+        if r == 1:
             stop, cs = stops_early(wk, hs, nact, early, cs)
             if stop:
                 keep_pairs(wk, hs, nact)
@@ -440,8 +461,8 @@ def advance(md, wk, hs, t_end, torque, speed, lti, early):
 
     ``early``: (NaN, NaN), or for an FMU's early return (the step's start, t_end): the
     advance then ends at the first change of the contact state strictly inside the step,
-    with the switch applied (`segment`); the clock says where. Until that change it computes
-    what it computes without early return, to the bit.
+    with the switch applied (`segment_early`); the clock says where. Until that change it
+    computes what it computes without early return, to the bit.
     """
     st, summ = hs.clock, wk.summary
     for i in range(N_OUT):
@@ -461,19 +482,25 @@ def advance(md, wk, hs, t_end, torque, speed, lti, early):
     s_tol = abs(v1) * 16.0 * 2.220446049250313e-16 * max(1.0, abs(t_end))
     s_lim = s_end + s_tol if speed > 0.0 else s_end - s_tol
     last_b = np.nan
+    watch = early[0] == early[0]  # not NaN
     cs = -1
-    if early[0] == early[0]:  # the contact state at the step's start
+    if watch:  # the contact state at the step's start
         cs = contact_state(wk, hs, current_active(md, wk, hs))
+    else:  # a segment an early return cut is gone on with like any other
+        hs.mode[J_RESUME] = 0
     while True:
         tb, ib, last_b, repeat = next_boundary(md, wk, hs, noff,
                                                (t_start, s_start, t_end, s_lim), last_b)
         if repeat:
             continue
-        stopped, cs = segment(md, wk, hs, tb, lti, early, cs)
+        if watch:
+            stopped, cs = segment_early(md, wk, hs, tb, lti, early, cs)
+            if stopped and summ[O_STATUS] == STATUS_OK:
+                hs.mode[J_NEVTOT] += int(summ[O_NEV])
+                return
+        else:
+            segment(md, wk, hs, tb, lti)
         if summ[O_STATUS] != STATUS_OK:
-            return
-        if stopped:
-            hs.mode[J_NEVTOT] += int(summ[O_NEV])
             return
         if ib < 0:
             break

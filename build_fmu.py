@@ -272,16 +272,17 @@ def c_compiler() -> str:
                        "(fmu_src/c): install gcc (Debian/Ubuntu: apt-get install gcc) or set CC")
 
 
-C_SOURCES = ("fmi2Functions.c", "gearpair_fmu.c", "gearpair_model.c", "python_slave.c")
+FMI2_LAYER = ("fmi2Functions.c", "fmi2States.c")  # the generic FMI 2 layer
+C_SOURCES = (*FMI2_LAYER, "gearpair_fmu.c", "gearpair_model.c", "python_slave.c")
 # the win64 binary: the same layer with the stand-in that loads no Python (engine = 1 refused)
-WIN64_SOURCES = ("fmi2Functions.c", "gearpair_fmu.c", "gearpair_model.c", "no_python.c")
+WIN64_SOURCES = (*FMI2_LAYER, "gearpair_fmu.c", "gearpair_model.c", "no_python.c")
 WIN64_CC = "x86_64-w64-mingw32-gcc"
 WIN64_MISSING = (f"no mingw-w64 cross compiler ({WIN64_CC}; Debian/Ubuntu: apt-get install "
                  "gcc-mingw-w64-x86-64)")
 # the DLLs the win64 binary may import: Windows' own (the C runtime msvcrt, or the UCRT)
 WIN64_SYSTEM_DLLS = ("kernel32.dll", "msvcrt.dll", "ucrtbase.dll")
-PYTHON_SOURCES = ("fmi2Functions.c", "python_fmu.c", "python_slave.c")  # another slave
-NOOP_SOURCES = ("fmi2Functions.c", "noop_fmu.c")  # the bench's floor: a model doing nothing
+PYTHON_SOURCES = (*FMI2_LAYER, "python_fmu.c", "python_slave.c")  # another slave
+NOOP_SOURCES = (*FMI2_LAYER, "noop_fmu.c")  # the bench's floor: a model doing nothing
 
 
 def noop_binary(xml: bytes, workdir: Path) -> bytes:

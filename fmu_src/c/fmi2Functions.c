@@ -26,27 +26,11 @@
 
 #include "fmu.h"
 
-#ifdef _WIN32 /* the win64 binary (mingw-w64): only the fmi2 functions are exported */
-#define EXPORT __declspec(dllexport)
-#else
-#define EXPORT __attribute__((visibility("default")))
-#endif
+#include "fmi2_layer.h"
 
 static const char *const MODE_NAME[] = {"instantiated", "initialization mode",
                                         "step mode (initialized)", "terminated",
                                         "fatal error"};
-#define IN(m, set) (((set) >> (m)) & 1u)
-#define B(m) (1u << (m))
-#define ANY_LIVE (B(M_INSTANTIATED) | B(M_INIT) | B(M_STEP) | B(M_TERMINATED))
-
-/* An FMU state: one block of bytes (`snapshot`), in the instance's list. */
-struct FmuState {
-    uint32_t magic;
-    size_t size;
-    unsigned char *bytes;
-    FmuState *next;
-};
-#define STATE_MAGIC 0x47505354u
 
 /* -- logging ---------------------------------------------------------------------------- */
 static int debug_enabled(const Instance *s, const char *category) {
@@ -99,7 +83,7 @@ void fmu_log(Instance *s, fmi2Status status, const char *fmt, ...) {
 
 /* -- checks ----------------------------------------------------------------------------- */
 /* Refuse a call not allowed in the instance's mode (or when the model can no longer run). */
-static int allowed(Instance *s, unsigned modes, const char *fn) {
+int fmi2_allowed(Instance *s, unsigned modes, const char *fn) {
     if (model_gone(s, fn)) return 0;
     if (IN(s->mode, modes)) return 1;
     fmu_log(s, fmi2Error, "%s is not allowed in %s%s", fn, MODE_NAME[s->mode],
@@ -248,7 +232,7 @@ static fmi2Status refused_report(Instance *s) {
 /* fmi2Get* of nvr values of `type` into out (as doubles: the caller converts). */
 static int get_values(Instance *s, const char *fn, char type, const fmi2ValueReference vr[],
                       size_t nvr, const void *dst) {
-    if (!s || !allowed(s, GET_MODES, fn)) return 0;
+    if (!s || !fmi2_allowed(s, GET_MODES, fn)) return 0;
     return check_refs(s, fn, vr, nvr, dst, type);
 }
 
@@ -256,7 +240,7 @@ static int get_values(Instance *s, const char *fn, char type, const fmi2ValueRef
 static fmi2Status set_values(Instance *s, const char *fn, char type,
                              const fmi2ValueReference vr[], size_t nvr, const void *src,
                              const double *x) {
-    if (!s || !allowed(s, SET_MODES, fn)) return fmi2Error;
+    if (!s || !fmi2_allowed(s, SET_MODES, fn)) return fmi2Error;
     if (!check_refs(s, fn, vr, nvr, src, type)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
         const FmuVar *v = &MODEL_VARS[find_var(vr[i], type)];
@@ -278,85 +262,6 @@ static fmi2Status set_ints(Instance *s, const char *fn, char type,
     fmi2Status st = set_values(s, fn, type, vr, nvr, value, x);
     if (x != small) free(x);
     return st;
-}
-
-/* -- FMU states ---------------------------------------------------------------------------- */
-/* A snapshot: header words (mode, start time, last successful time), the values, the
- * model's bytes. */
-#define SNAP_HEAD 3
-#define SNAP_VALUES ((SNAP_HEAD + MODEL_NVARS) * sizeof(double))
-
-static FmuState *find_state(Instance *s, fmi2FMUstate p, FmuState ***link) {
-    FmuState **l = &s->states;
-    for (FmuState *st = s->states; st; l = &st->next, st = st->next)
-        if ((void *)st == p) {
-            if (link) *link = l;
-            return st;
-        }
-    return NULL;
-}
-
-static fmi2Status snapshot(Instance *s, unsigned char **bytes, size_t *size) {
-    size_t n = 0;
-    fmi2Status r = model_state_size(s, &n);
-    if (r > fmi2Warning) return r;
-    unsigned char *b = malloc(SNAP_VALUES + n);
-    if (!b) {
-        fmu_log(s, fmi2Error, "fmi2GetFMUstate: out of memory");
-        return fmi2Error;
-    }
-    double head[SNAP_HEAD] = {(double)s->mode, s->start_time, s->last_successful_time};
-    memcpy(b, head, sizeof head);
-    memcpy(b + sizeof head, s->value, sizeof s->value);
-    r = model_state_save(s, b + SNAP_VALUES, n);
-    if (r > fmi2Warning) {
-        free(b);
-        return r;
-    }
-    *bytes = b;
-    *size = SNAP_VALUES + n;
-    return r;
-}
-
-static fmi2Status restore(Instance *s, const unsigned char *b, size_t size, const char *fn) {
-    double head[SNAP_HEAD], values[MODEL_NVARS];
-    if (size < SNAP_VALUES) {
-        fmu_log(s, fmi2Error, "%s: not a state of this FMU", fn);
-        return fmi2Error;
-    }
-    memcpy(head, b, sizeof head);
-    memcpy(values, b + sizeof head, sizeof values);
-    fmi2Status r = model_state_load(s, b + SNAP_VALUES, size - SNAP_VALUES, values);
-    if (r > fmi2Warning) return r;
-    s->mode = (Mode)head[0];
-    s->start_time = head[1];
-    s->last_successful_time = head[2];
-    memcpy(s->value, values, sizeof values);
-    s->n_refused = 0;
-    memset(s->refused, 0, sizeof s->refused);
-    return r;
-}
-
-/* CRC-32 (IEEE 802.3 polynomial, reflected) for serialized states. */
-static uint32_t crc32_of(const unsigned char *p, size_t n, uint32_t crc) {
-    crc = ~crc;
-    for (size_t i = 0; i < n; i++) {
-        crc ^= p[i];
-        for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-    }
-    return ~crc;
-}
-
-/* Trailer after a serialized state: tag, mode, payload length, CRC-32 of payload and the
- * preceding trailer fields (little-endian). */
-#define TRAILER_TAG "GPFMUST2"
-#define TRAILER_SIZE 20
-
-static void put32(unsigned char *p, uint32_t x) {
-    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(x >> (8 * i));
-}
-static uint32_t get32(const unsigned char *p) {
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
 static int hexval(char c) {
@@ -498,7 +403,7 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
 EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol,
                                       fmi2Real start, fmi2Boolean stop_defined, fmi2Real stop) {
     Instance *s = c;
-    if (!s || !allowed(s, B(M_INSTANTIATED), "fmi2SetupExperiment")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, B(M_INSTANTIATED), "fmi2SetupExperiment")) return fmi2Error;
     if (!isfinite(start) || (stop_defined && !(stop >= start))) {
         fmu_log(s, fmi2Error, "fmi2SetupExperiment: startTime = %.17g s must be finite and "
                 "stopTime (%.17g s) not before it", start, stop_defined ? stop : start);
@@ -511,14 +416,14 @@ EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tol_defined, 
 
 EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     Instance *s = c;
-    if (!s || !allowed(s, B(M_INSTANTIATED), "fmi2EnterInitializationMode")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, B(M_INSTANTIATED), "fmi2EnterInitializationMode")) return fmi2Error;
     s->mode = M_INIT;
     return fmi2OK;
 }
 
 EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *s = c;
-    if (!s || !allowed(s, B(M_INIT), "fmi2ExitInitializationMode")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, B(M_INIT), "fmi2ExitInitializationMode")) return fmi2Error;
     if (s->n_refused) return refused_report(s);
     /* refused (e.g. a combination of parameters): the instance stays in initialization
      * mode, so the master may correct a parameter and call this again */
@@ -534,14 +439,14 @@ EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
         s->mode = M_TERMINATED;
         return fmi2OK;
     }
-    if (!s || !allowed(s, B(M_STEP), "fmi2Terminate")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, B(M_STEP), "fmi2Terminate")) return fmi2Error;
     s->mode = M_TERMINATED;
     return fmi2OK;
 }
 
 EXPORT fmi2Status fmi2Reset(fmi2Component c) {
     Instance *s = c;
-    if (!s || !allowed(s, ANY_LIVE, "fmi2Reset")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, ANY_LIVE, "fmi2Reset")) return fmi2Error;
     model_reset(s);
     start_values(s);
     s->mode = M_INSTANTIATED;
@@ -579,7 +484,7 @@ EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], 
     Instance *s = c;
     (void)vr;
     (void)value;
-    if (!s || !allowed(s, GET_MODES, "fmi2GetString")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, GET_MODES, "fmi2GetString")) return fmi2Error;
     if (!nvr) return fmi2OK;
     fmu_log(s, fmi2Error, "fmi2GetString: this FMU has no String variables");
     return fmi2Error;
@@ -605,7 +510,7 @@ EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], 
     Instance *s = c;
     (void)vr;
     (void)value;
-    if (!s || !allowed(s, SET_MODES, "fmi2SetString")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, SET_MODES, "fmi2SetString")) return fmi2Error;
     if (!nvr) return fmi2OK;
     fmu_log(s, fmi2Error, "fmi2SetString: this FMU has no String variables");
     return fmi2Error;
@@ -615,7 +520,7 @@ EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], 
 EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_set) {
     Instance *s = c;
     (void)no_set;
-    if (!s || !allowed(s, B(M_STEP), "fmi2DoStep")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, B(M_STEP), "fmi2DoStep")) return fmi2Error;
     if (!isfinite(t) || !isfinite(h) || !(h > 0.0)) {
         fmu_log(s, fmi2Error, "fmi2DoStep refused: currentCommunicationPoint = %.17g s and "
                 "communicationStepSize = %.17g s must be finite and the step size > 0; the "
@@ -645,13 +550,13 @@ EXPORT fmi2Status fmi2CancelStep(fmi2Component c) {
 EXPORT fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status *v) {
     (void)k;
     (void)v;
-    if (!c || !allowed(c, STATUS_MODES, "fmi2GetStatus")) return fmi2Error;
+    if (!c || !fmi2_allowed(c, STATUS_MODES, "fmi2GetStatus")) return fmi2Error;
     return fmi2Discard; /* no asynchronous step: no status to report */
 }
 
 EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *v) {
     Instance *s = c;
-    if (!s || !allowed(s, STATUS_MODES, "fmi2GetRealStatus")) return fmi2Error;
+    if (!s || !fmi2_allowed(s, STATUS_MODES, "fmi2GetRealStatus")) return fmi2Error;
     if (k != fmi2LastSuccessfulTime || !v) return fmi2Discard;
     *v = s->last_successful_time;
     return fmi2OK;
@@ -660,12 +565,12 @@ EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi
 EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer *v) {
     (void)k;
     (void)v;
-    if (!c || !allowed(c, STATUS_MODES, "fmi2GetIntegerStatus")) return fmi2Error;
+    if (!c || !fmi2_allowed(c, STATUS_MODES, "fmi2GetIntegerStatus")) return fmi2Error;
     return fmi2Discard;
 }
 
 EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v) {
-    if (!c || !allowed(c, STATUS_MODES, "fmi2GetBooleanStatus")) return fmi2Error;
+    if (!c || !fmi2_allowed(c, STATUS_MODES, "fmi2GetBooleanStatus")) return fmi2Error;
     if (k != fmi2Terminated || !v) return fmi2Discard;
     *v = fmi2False; /* the model never asks to end the simulation */
     return fmi2OK;
@@ -674,7 +579,7 @@ EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, 
 EXPORT fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *v) {
     (void)k;
     (void)v;
-    if (!c || !allowed(c, STATUS_MODES, "fmi2GetStringStatus")) return fmi2Error;
+    if (!c || !fmi2_allowed(c, STATUS_MODES, "fmi2GetStringStatus")) return fmi2Error;
     return fmi2Discard;
 }
 
@@ -703,142 +608,4 @@ EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueR
                                                fmi2Real value[]) {
     (void)vr, (void)nvr, (void)order, (void)value;
     return unsupported(c, "fmi2GetRealOutputDerivatives (maxOutputDerivativeOrder is 0)");
-}
-
-/* -- FMU state --------------------------------------------------------------------------- */
-static FmuState *known_state(Instance *s, fmi2FMUstate p, const char *fn) {
-    FmuState *st = p ? find_state(s, p, NULL) : NULL;
-    if (!st) fmu_log(s, fmi2Error, "%s: not an FMU state of this instance (freed, or from "
-                     "elsewhere)", fn);
-    return st;
-}
-
-EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    Instance *s = c;
-    if (!s || !allowed(s, ANY_LIVE, "fmi2GetFMUstate")) return fmi2Error;
-    if (!state) {
-        fmu_log(s, fmi2Error, "fmi2GetFMUstate: null state pointer");
-        return fmi2Error;
-    }
-    FmuState *own = *state ? find_state(s, *state, NULL) : NULL;
-    if (*state && !own) {
-        fmu_log(s, fmi2Error, "fmi2GetFMUstate: *FMUstate is neither null nor a state of "
-                "this instance");
-        return fmi2Error;
-    }
-    unsigned char *bytes;
-    size_t size;
-    fmi2Status r = snapshot(s, &bytes, &size);
-    if (r > fmi2Warning) return r;
-    if (!own) {
-        own = calloc(1, sizeof *own);
-        if (!own) {
-            free(bytes);
-            fmu_log(s, fmi2Error, "fmi2GetFMUstate: out of memory");
-            return fmi2Error;
-        }
-        own->magic = STATE_MAGIC;
-        own->next = s->states;
-        s->states = own;
-        *state = own;
-    }
-    free(own->bytes); /* a given state is overwritten, as the standard allows */
-    own->bytes = bytes;
-    own->size = size;
-    return r;
-}
-
-EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
-    Instance *s = c;
-    if (!s || !allowed(s, ANY_LIVE, "fmi2SetFMUstate")) return fmi2Error;
-    FmuState *st = known_state(s, state, "fmi2SetFMUstate");
-    if (!st) return fmi2Error;
-    return restore(s, st->bytes, st->size, "fmi2SetFMUstate");
-}
-
-EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    Instance *s = c;
-    if (!s || !allowed(s, ANY_LIVE, "fmi2FreeFMUstate")) return fmi2Error;
-    if (!state || !*state) return fmi2OK; /* the standard: a null state is ignored */
-    FmuState **link;
-    FmuState *st = find_state(s, *state, &link);
-    if (!st) {
-        fmu_log(s, fmi2Error, "fmi2FreeFMUstate: not an FMU state of this instance (freed "
-                "already, or from elsewhere)");
-        return fmi2Error;
-    }
-    *link = st->next;
-    st->magic = 0;
-    free(st->bytes);
-    free(st);
-    *state = NULL;
-    return fmi2OK;
-}
-
-EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
-    Instance *s = c;
-    if (!s || !allowed(s, ANY_LIVE, "fmi2SerializedFMUstateSize")) return fmi2Error;
-    FmuState *st = known_state(s, state, "fmi2SerializedFMUstateSize");
-    if (!st || !size) return fmi2Error;
-    *size = st->size + TRAILER_SIZE;
-    return fmi2OK;
-}
-
-EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
-                                        size_t size) {
-    Instance *s = c;
-    if (!s || !allowed(s, ANY_LIVE, "fmi2SerializeFMUstate")) return fmi2Error;
-    FmuState *st = known_state(s, state, "fmi2SerializeFMUstate");
-    if (!st) return fmi2Error;
-    size_t n = st->size;
-    if (!bytes || size != n + TRAILER_SIZE || n > 0xFFFFFFFFu) {
-        fmu_log(s, fmi2Error, "fmi2SerializeFMUstate: the buffer must have the size "
-                "fmi2SerializedFMUstateSize gave (%zu bytes), got %zu", n + TRAILER_SIZE, size);
-        return fmi2Error;
-    }
-    memcpy(bytes, st->bytes, n);
-    unsigned char *t = (unsigned char *)bytes + n;
-    double mode;
-    memcpy(&mode, st->bytes, sizeof mode);
-    memcpy(t, TRAILER_TAG, 8);
-    put32(t + 8, (uint32_t)mode);
-    put32(t + 12, (uint32_t)n);
-    put32(t + 16, crc32_of((const unsigned char *)bytes, n + 16, 0));
-    return fmi2OK;
-}
-
-EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size,
-                                          fmi2FMUstate *state) {
-    Instance *s = c;
-    if (!s || !allowed(s, ANY_LIVE, "fmi2DeSerializeFMUstate")) return fmi2Error;
-    if (!state || (size && !bytes)) {
-        fmu_log(s, fmi2Error, "fmi2DeSerializeFMUstate: null argument");
-        return fmi2Error;
-    }
-    const unsigned char *b = (const unsigned char *)bytes;
-    const unsigned char *t = size >= TRAILER_SIZE + SNAP_VALUES ? b + size - TRAILER_SIZE
-                                                                : NULL;
-    if (!t || memcmp(t, TRAILER_TAG, 8) || get32(t + 12) != size - TRAILER_SIZE ||
-        get32(t + 8) > M_TERMINATED || crc32_of(b, size - 4, 0) != get32(t + 16)) {
-        fmu_log(s, fmi2Error, "fmi2DeSerializeFMUstate: the %zu bytes are not a complete, "
-                "unaltered serialized state of this FMU (format tag, length or checksum "
-                "wrong); nothing was restored", size);
-        return fmi2Error;
-    }
-    FmuState *nw = calloc(1, sizeof *nw);
-    unsigned char *copy = malloc(size - TRAILER_SIZE);
-    if (!nw || !copy) {
-        free(nw);
-        free(copy);
-        fmu_log(s, fmi2Error, "fmi2DeSerializeFMUstate: out of memory");
-        return fmi2Error;
-    }
-    memcpy(copy, b, size - TRAILER_SIZE);
-    nw->magic = STATE_MAGIC;
-    nw->bytes = copy;
-    nw->size = size - TRAILER_SIZE;
-    nw->next = s->states;
-    s->states = nw;
-    *state = nw;
-    return fmi2OK;
 }

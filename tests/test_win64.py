@@ -135,6 +135,11 @@ def wine():
             with tempfile.TemporaryFile() as e:
                 subprocess.run([exe, "wineboot", "--init"], env=env, stdin=subprocess.DEVNULL,
                                stdout=subprocess.DEVNULL, stderr=e, timeout=600)
+                # the registry files of a new prefix are written when its wineserver exits
+                # (seconds after wineboot returns): wait for that
+                server = shutil.which("wineserver") or str(Path(exe).with_name("wineserver"))
+                subprocess.run([server, "-w"], env=env, stdin=subprocess.DEVNULL,
+                               stdout=subprocess.DEVNULL, stderr=e, timeout=600)
                 e.seek(0)
                 why = e.read().decode(errors="replace")[-2000:]
             assert (prefix / "system.reg").is_file(), f"wineboot failed: {why}"

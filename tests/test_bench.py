@@ -195,6 +195,50 @@ def test_c_host_rows(quick):
     assert any("two in two processes" in t["target"] for t in quick["targets"])
 
 
+def test_fmi3_host_rows(quick):
+    """GearPair3.fmu against GearPair.fmu in the C host (issue 35): every variant stepped the
+    same communication points, the early-return ones more often, the same output bits, the
+    target row; --quick measures no Wine row and says so."""
+    if not HAS_FMU:
+        pytest.skip("pythonfmu/fmpy missing")
+    fh = quick["fmi3_host"]
+    if shutil.which("gcc") is None:
+        assert "gcc" in fh["note"]
+        return
+    assert fh["note"] is None and fh["error"] is None, fh
+    assert fh["fmu3_file"].endswith("GearPair3.fmu") and fh["step"] == 1e-4
+    s = bench.QUICK
+    assert fh["simulated_s"] == pytest.approx(s.host_rounds * s.host_n * 1e-4)
+    v = fh["variants"]
+    assert list(v) == ["fmi2", "fmi3", "fmi3_events", "fmi3_early"]
+    for name, row in v.items():
+        assert len(row["wall_us"]) == len(row["cpu_us"]) == s.host_rounds, name
+        assert all(x > 0 for x in row["wall_us"] + row["cpu_us"]), (name, row)
+        assert np.isfinite([row["per_sim_s"], row["per_sim_s_cpu"]]).all()
+    # one doStep per communication point without early return; with it, one more per early
+    # return, and in Event Mode one Event Mode entry per early return (each is an event)
+    for name in ("fmi2", "fmi3"):
+        assert v[name]["calls_per_s"] == pytest.approx(1e4) and v[name]["early_per_s"] == 0
+    for name in ("fmi3_events", "fmi3_early"):
+        assert v[name]["calls_per_s"] == pytest.approx(1e4 + v[name]["early_per_s"])
+    assert v["fmi3_events"]["events_per_s"] == v["fmi3_events"]["early_per_s"]
+    assert v["fmi3_early"]["events_per_s"] == 0
+    assert v["fmi3_events"]["early_per_s"] == v["fmi3_early"]["early_per_s"]
+    # without early return the outputs at every point are GearPair.fmu's, bit for bit
+    assert fh["identical"], {k: r["digest"] for k, r in v.items()}
+    assert fh["fmi3_over_fmi2"] == pytest.approx(statistics.median(
+        a / b for a, b in zip(v["fmi3"]["wall_us"], v["fmi2"]["wall_us"], strict=True)))
+    assert 0.0 < fh["fmi3_events_over_fmi3"] < 100.0
+    rows = [t for t in quick["targets"] if "GearPair3.fmu per step" in t["target"]]
+    assert len(rows) == 1 and rows[0]["measured"] == f"{fh['fmi3_over_fmi2']:.3f}", rows
+    assert any("GearPair3.fmu without early return gives" in t["target"] and t["met"]
+               for t in quick["targets"])
+    text = bench.report(quick)
+    assert "GearPair3.fmu, early return + Event Mode" in text and "early returns" in text
+    assert quick["wine_host"]["note"].startswith("win64 under Wine: not measured")
+    assert quick["wine_host"]["note"] in text
+
+
 @pytest.mark.skipif(not HAS_FMU or shutil.which("gcc") is None, reason="pythonfmu/fmpy/gcc")
 def test_noop_floor_runs_on_the_same_generic_layer(fmu_path, tmp_path):
     """The no-op FMU's binary is the generic FMI layer over a model that does nothing (no

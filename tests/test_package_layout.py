@@ -165,7 +165,8 @@ from gearpair.bench import plain_scipy, settings
 
 lib = pathlib.Path(sys.argv[1]).resolve()
 assert pathlib.Path(gearpair.__file__).resolve().is_relative_to(lib), gearpair.__file__
-for f in (settings.NOOP_SCRIPT, settings.HOST_SOURCE, settings.HERE.parent / "stepblock.py",
+for f in (settings.NOOP_SCRIPT, settings.HOST_SOURCE, settings.FMI3_HOST_SOURCE,
+          settings.HERE.parent / "stepblock.py",
           pathlib.Path(plain_scipy.__file__)):
     assert f.resolve().is_relative_to(lib) and f.is_file(), f
 print("ok")
@@ -175,7 +176,7 @@ print("ok")
 def test_the_installed_package_holds_every_file_the_bench_reads(tmp_path):
     """What a wheel installs (setuptools' ``build_py`` under the project's pyproject.toml: the
     packages with their package data), imported with no repository around it, finds the
-    bench's own files inside itself: the no-op slave, the C timing host, the step block's
+    bench's own files inside itself: the no-op slave, the C timing hosts, the step block's
     layout and the plain scipy model."""
     root = PACKAGE.parents[1]
     src, lib = tmp_path / "src", tmp_path / "lib"
@@ -187,7 +188,8 @@ def test_the_installed_package_holds_every_file_the_bench_reads(tmp_path):
     subprocess.run([sys.executable, "-c", "from setuptools import setup; setup()", "-q",
                     "build_py", "-d", str(lib)], cwd=src, check=True, capture_output=True,
                    timeout=120)
-    assert (lib / "gearpair" / "bench" / "fmi2_bench_host.c").is_file()
+    for host in ("fmi2_bench_host.c", "fmi3_bench_host.c"):
+        assert (lib / "gearpair" / "bench" / host).is_file(), host
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     out = subprocess.run([sys.executable, "-c", _INSTALLED, str(lib)], cwd=tmp_path,
                          env={**env, "PYTHONPATH": str(lib)}, capture_output=True, text=True,

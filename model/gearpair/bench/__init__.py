@@ -29,7 +29,10 @@ measures in one run, side by side on the same machine:
 - **the FMU in a C master**: per-step cost of set 2 inputs + doStep + get 4
   outputs at 1e-4 and 1e-3 s steps in ``fmi2_bench_host.c`` (beside this module) beside
   fmpy's, with the no-op slave and the engine's own work, and the first start with empty and
-  warm caches (skipped without gcc).
+  warm caches (skipped without gcc); GearPair3.fmu (FMI 3.0) against GearPair.fmu in
+  ``fmi3_bench_host.c`` at 1e-4 s steps, without early return and with it (early returns
+  per simulated second and their cost), and, outside ``--quick``, GearPair.fmu's win64 DLL
+  under Wine against its linux64 binary (information; skipped without Wine or mingw-w64).
 - **cost of effects**: wall time per simulated second of every example scene (the folder
   ``examples/scenes`` of the current directory, or ``--scenes DIR``; skipped with a note
   without one) and
@@ -56,6 +59,7 @@ from __future__ import annotations
 
 from .chost import build_host, host_measurements, run_host
 from .effect_cost import LADDER_RUNS, cost_table
+from .fmi3 import fmi3_measurements, wine_measurements
 from .fmu import build_noop, fmu_measurements, fmu_start, fmu_startup
 from .measure import run, warm_up
 from .memory import memory_peak
@@ -77,6 +81,7 @@ from .runs import (
 )
 from .settings import (
     DEFAULT,
+    FMI3_HOST_SOURCE,
     FRICTION_OF,
     FULL,
     HOST_SOURCE,
@@ -112,7 +117,8 @@ from .work_precision import (
 )
 
 __all__ = [
-    "DEFAULT", "FRICTION_OF", "FULL", "HOST_SOURCE", "LADDER", "LADDER_RUNS", "NEVER",
+    "DEFAULT", "FMI3_HOST_SOURCE", "FRICTION_OF", "FULL", "HOST_SOURCE", "LADDER",
+    "LADDER_RUNS", "NEVER",
     "NOOP_SCRIPT", "PLAIN_PREFIX", "PRESETS", "QUICK", "RECTANGULAR", "REGIMES",
     "SCENES_DIR", "SCIPY_MAX_EVENTS", "SCIPY_METHODS", "STIFFNESS_OF", "TARGET_ERROR",
     "TARGET_FIRST_START_S", "WP_REGIMES",
@@ -120,8 +126,9 @@ __all__ = [
     "TARGET_SPEEDUP", "TARGET_STICK_SLIP", "_record", "_record_calls", "accurate_rtol",
     "BudgetExceeded", "build_host", "build_noop", "clock", "core_step_costs",
     "cost_table", "engine_call_cost", "engine_rows", "engine_run", "equal_accuracy",
-    "fmu_measurements", "fmu_start", "fmu_startup", "host_measurements", "jsonable",
+    "fmi3_measurements", "fmu_measurements", "fmu_start", "fmu_startup", "host_measurements",
+    "jsonable",
     "machine_info", "memory_peak", "plain_rows", "plot", "references",
     "regime_effects", "relative_error", "report", "run", "run_host", "Settings",
-    "table", "targets", "time_limit", "Timing", "warm_up",
+    "table", "targets", "time_limit", "Timing", "warm_up", "wine_measurements",
 ]

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from .chost import host_measurements
 from .effect_cost import cost_table
+from .fmi3 import fmi3_measurements, wine_measurements
 from .fmu import build_noop, fmu_measurements, fmu_startup
 from .memory import memory_peak
 from .plain import plain_rows
@@ -135,7 +136,7 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu: str | Path | No
     core = core_step_costs(s, _step_rtols(rows, s.fmu_rtols))
     progress("fast core at 1e-3 s steps: done")
     result.update(work_precision=rows, core_steps=core, fmu=None, startup=None,
-                  c_host=None)
+                  c_host=None, fmi3_host=None, wine_host=None)
     if s.fmu:
         from ..scenes.location import find_fmu
 
@@ -150,6 +151,10 @@ def run(s: Settings = DEFAULT, progress: Progress = _quiet, fmu: str | Path | No
                 rows.extend(fm["rows"])
                 result["c_host"] = host_measurements(s, gearpair_fmu, noop,
                                                      Path(tmp) / "host", progress)
+                result["fmi3_host"] = fmi3_measurements(s, gearpair_fmu, Path(tmp) / "fmi3",
+                                                        progress)
+                result["wine_host"] = wine_measurements(s, gearpair_fmu, Path(tmp) / "wine",
+                                                        progress)
                 if s.startup:
                     result["startup"] = fmu_startup(gearpair_fmu, progress,
                                                     compile_row=s.name != "quick")

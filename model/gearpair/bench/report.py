@@ -46,7 +46,7 @@ def report(result: dict) -> str:
     "CPU" are wall time and CPU time of the measuring process)."""
     out: list[str] = []
     for section in (_header, _work_precision, _equal_accuracy, _core_steps, _fmu, _c_host,
-                    _cost, _memory_and_targets):
+                    _fmi3_host, _wine_host, _cost, _memory_and_targets):
         out += section(result)
     return "\n".join(out)
 
@@ -340,6 +340,86 @@ def _c_host(result: dict) -> list[str]:
              for k, v in (("empty (shipped code)", st["empty"]), ("warm", st["warm"]))]))
     out.append("")
     return out
+
+
+_VARIANT_NAMES = {"fmi2": "GearPair.fmu (FMI 2)", "fmi3": "GearPair3.fmu, no early return",
+                  "fmi3_events": "GearPair3.fmu, early return + Event Mode",
+                  "fmi3_early": "GearPair3.fmu, early return, no Event Mode"}
+
+
+def _fmi3_host(result: dict) -> list[str]:
+    """GearPair3.fmu against GearPair.fmu in the C host, with and without early return."""
+    fh = result.get("fmi3_host")
+    if not fh:
+        return []
+    if fh["note"]:
+        return [fh["note"], ""]
+    if fh["error"]:
+        return [f"GearPair3.fmu rows failed: {fh['error']}", ""]
+    out = [f"GearPair3.fmu (FMI 3.0) against GearPair.fmu in a C host "
+           f"(gearpair/bench/fmi3_bench_host.c), the loop of a master: set "
+           f"{', '.join(fh['inputs'])}; doStep; get {', '.join(fh['outputs'])} ({fh['regime']} "
+           f"at the default point, the paper's stick-slip scene, rtol {fh['rtol']:g}, "
+           f"{fh['step']:g} s communication steps; {fh['rounds']} rounds of {fh['n']} points, "
+           "every variant over the same model time in each round, back to back; us per "
+           "communication point, an early return's extra set + doStep + get included; s/s: "
+           "s per simulated s, the median round; ratio: the median of the per-round ratios "
+           "to the run without early return; calls per simulated s over all rounds):"]
+    base = "fmi3"
+    rows = []
+    for name, v in fh["variants"].items():
+        ratio = 1.0 if name == base else fh.get(f"{name}_over_{base}")
+        if name == "fmi2":
+            ratio = 1.0 / fh["fmi3_over_fmi2"]
+        rows.append([_VARIANT_NAMES.get(name, name), _fmt(v["wall_best_us"], ".2f"),
+                     _fmt(v["wall_median_us"], ".2f"), _fmt(v["cpu_median_us"], ".2f"),
+                     _fmt(v["calls_per_s"], ".0f"), _fmt(v["early_per_s"], ".0f"),
+                     _fmt(v["events_per_s"], ".0f"), _fmt(v["per_sim_s"], ".4f"),
+                     _fmt(v["per_sim_s_cpu"], ".4f"), _fmt(ratio, ".3f")])
+    out.append(table(["variant", "wall best", "wall median", "CPU median", "doStep/s",
+                      "early returns/s", "Event Mode/s", "wall s/s", "CPU s/s",
+                      "/ no early return"], rows))
+    same = "the same" if fh["identical"] else "DIFFERENT"
+    out.append(f"GearPair3.fmu / GearPair.fmu per step without early return: "
+               f"{fh['fmi3_over_fmi2']:.3f} (median of the per-round ratios; CPU "
+               f"{fh['fmi3_over_fmi2_cpu']:.3f}; best rounds {fh['fmi3_over_fmi2_best']:.3f});"
+               f" outputs at every communication point {same} bits"
+               + (", with early return too" if fh["identical_early"] else "") + ".")
+    ev = fh["variants"].get("fmi3_events")
+    if ev:
+        extra, extra_cpu = fh.get("fmi3_events_extra_us"), fh.get("fmi3_events_extra_us_cpu")
+        out.append(f"With early return (a master that handles each one in Event Mode): "
+                   f"{ev['early_per_s']:.0f} early returns, i.e. extra doStep calls, per "
+                   f"simulated s; the run costs {fh['fmi3_events_over_fmi3']:.3f} x the run "
+                   f"without (CPU {fh['fmi3_events_over_fmi3_cpu']:.3f} x)"
+                   + ("" if extra is None else f", {extra:.1f} us per early return (CPU "
+                      f"{extra_cpu:.1f} us)") + ".")
+    out.append("")
+    return out
+
+
+def _wine_host(result: dict) -> list[str]:
+    """GearPair.fmu's win64 DLL under Wine against its linux64 binary (information)."""
+    wh = result.get("wine_host")
+    if not wh:
+        return []
+    if wh["note"]:
+        return [wh["note"], ""]
+    if wh["error"]:
+        return [f"win64 under Wine failed: {wh['error']}", ""]
+    return [f"GearPair.fmu per step, win64 DLL under Wine against the linux64 binary "
+            f"(information, no target: Wine is not Windows): the host above built with "
+            f"mingw-w64 and with gcc, {wh['runs']} processes of each, alternating, "
+            f"{wh['rounds']} blocks of {wh['n']} steps of {wh['step']:g} s each, "
+            f"{wh['regime']} at the default point, rtol {wh['rtol']:g}; us per step:",
+            table(["platform", "wall best", "wall median", "CPU (all blocks)"],
+                  [[name, _fmt(wh[f"{key}_best_us"], ".2f"),
+                    _fmt(wh[f"{key}_median_us"], ".2f"), _fmt(wh[f"{key}_cpu_us"], ".2f")]
+                   for name, key in (("linux64", "linux"), ("win64 under Wine", "win64"))]),
+            f"win64 / linux64 (medians): {wh['win64_over_linux']:.3f}; outputs "
+            + ("the same bits on both" if wh["identical"] else "DIFFER between them")
+            + " (Wine's thread CPU clock ticks in 10 ms: only the sum over the blocks "
+            "counts)", ""]
 
 
 def _cost(result: dict) -> list[str]:

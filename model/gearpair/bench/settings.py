@@ -9,6 +9,9 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent  # gearpair/bench: its files ship with the package
 NOOP_SCRIPT = HERE / "GearPairNoop.py"  # the do-nothing slave of the plumbing floor
 HOST_SOURCE = HERE / "fmi2_bench_host.c"  # the C timing host
+# the C timing host of GearPair3.fmu against GearPair.fmu (gcc), and of GearPair.fmu's win64
+# binary under Wine (mingw-w64)
+FMI3_HOST_SOURCE = HERE / "fmi3_bench_host.c"
 # the example scenes whose cost the bench times (Settings.scenes_dir): a folder of the
 # current directory, where a checkout has them
 SCENES_DIR = "examples/scenes"
@@ -44,6 +47,9 @@ TARGET_PROCESS_MB = 20.0
 TARGET_INSTANCE_S = 0.005
 TARGET_INSTANCE_MB = 0.5
 TARGET_NATIVE_STEP_US = 5.3
+# GearPair3.fmu (FMI 3.0, issue 35), without early return: its step costs GearPair.fmu's
+# within this fraction (C host, 1e-4 s steps, the median of the per-round ratios)
+TARGET_FMI3_STEP = 0.05
 # Where the two targets above were set (an AMD EPYC machine, 2 cores, 2026-11-25): the floor
 # of a 1e-4 s step there (the engine's bulk cost at 1e-3 s steps per 1e-4 s simulated) and
 # what two cores give two instances there at best (two free cores: 2). A machine of another
@@ -120,6 +126,10 @@ class Settings:
         and with empty and warm caches (C host)
     memory : measure the peak RSS of a ``memory_t_end`` run recorded every 1e-4 s
     fmu : run the FMU sections (needs pythonfmu and fmpy)
+    wine : time GearPair.fmu's win64 binary under Wine in the C host (`fmi3.wine_measurements`;
+        skipped with a note without Wine or mingw-w64)
+    wine_runs : processes per platform (linux64, win64 under Wine), alternating, each
+        ``host_rounds`` blocks of ``host_n`` steps
     """
 
     name: str = "default"
@@ -157,6 +167,8 @@ class Settings:
     memory: bool = False
     memory_t_end: float = 100.0
     fmu: bool = True
+    wine: bool = True
+    wine_runs: int = 3
 
     def window(self, regime: str) -> float:
         """Simulated time of the scipy runs (and of the common error window) of a regime."""
@@ -178,7 +190,8 @@ QUICK = Settings(
     plain_rtols=(("RK45", (1e-6,)), ("DOP853", (1e-6, 1e-9))),
     check_horizon=0.0005, check_regimes=("stick_slip",), step_horizon=0.02, calls=150,
     host_n=100, host_blocks=2, host_rounds=3, round_spin=2_000_000,
-    repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0)
+    repeats=1, cost_t_end=0.01, ladder_repeats=1, startup=False, run_budget=60.0,
+    wine=False)
 FULL = Settings(
     name="full", windows=tuple((r, 0.02) for r in WP_REGIMES),
     fast_rtols=(1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11),

@@ -7,6 +7,7 @@ from .settings import (
     FLOOR_AT_TARGET_US,
     TARGET_ERROR,
     TARGET_FIRST_START_S,
+    TARGET_FMI3_STEP,
     TARGET_FMU_FACTOR,
     TARGET_INSTANCE_MB,
     TARGET_INSTANCE_S,
@@ -63,6 +64,7 @@ def targets(result: dict) -> list[dict]:
         out.append(_target(what, st["fmu_per_sim_s"] / st["allowed_per_sim_s"],
                            st["fmu_per_sim_s_cpu"] / st["allowed_per_sim_s_cpu"], 1.0, ".2f"))
     out += _host_targets(result.get("c_host"))
+    out += _fmi3_targets(result.get("fmi3_host"))
     acc = accurate_rtol(result["work_precision"], "stick_slip")
     for c in result["core_steps"]:
         if c["regime"] != "stick_slip":
@@ -167,3 +169,29 @@ def _host_targets(ch: dict | None) -> list[dict]:
         out.append(_target(what, None if st["error"] else st["empty"]["total_s"], None,
                            TARGET_FIRST_START_S, ".1f", error=st["error"]))
     return out
+
+
+def _fmi3_targets(fh: dict | None) -> list[dict]:
+    """GearPair3.fmu without early return against GearPair.fmu in the C host (issue 35): the
+    median of the per-round ratios of their cost per step within `TARGET_FMI3_STEP` of 1,
+    either way (the same cost, not only no dearer), and the same output bits."""
+    if not fh or fh["note"]:
+        return []
+    what = (f"C host at {fh['step']:g} s: GearPair3.fmu per step without early return / "
+            f"GearPair.fmu per step, median of the interleaved rounds, within "
+            f"{100 * TARGET_FMI3_STEP:g} % of 1 (x)")
+    if fh["error"]:
+        return [_target(what, None, None, 1.0, ".3f", error=fh["error"])]
+
+    def ok(x):
+        return None if x is None else abs(x - 1.0) <= TARGET_FMI3_STEP
+
+    wall, cpu = fh["fmi3_over_fmi2"], fh.get("fmi3_over_fmi2_cpu")
+    off = abs(wall - 1.0) / TARGET_FMI3_STEP
+    return [{"target": what, "measured": format(wall, ".3f"),
+             "measured_cpu": None if cpu is None else format(cpu, ".3f"), "met": ok(wall),
+             "met_cpu": ok(cpu), "short_by": None if ok(wall) else f"factor {off:.2f}"},
+            {"target": "C host: GearPair3.fmu without early return gives GearPair.fmu's "
+             "outputs at every communication point (digest of their bits)",
+             "measured": str(fh["identical"]), "measured_cpu": None, "met": fh["identical"],
+             "met_cpu": None, "short_by": None}]

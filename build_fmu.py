@@ -272,7 +272,9 @@ def c_compiler() -> str:
                        "(fmu_src/c): install gcc (Debian/Ubuntu: apt-get install gcc) or set CC")
 
 
-FMI2_LAYER = ("fmi2Functions.c", "fmi2States.c")  # the generic FMI 2 layer
+# what the generic FMI layers of both versions share: logging, values, FMU states (fmu_layer.h)
+FMU_LAYER = ("fmu_log.c", "fmu_values.c", "fmu_states.c")
+FMI2_LAYER = ("fmi2Functions.c", "fmi2States.c", *FMU_LAYER)  # the generic FMI 2 layer
 C_SOURCES = (*FMI2_LAYER, "gearpair_fmu.c", "gearpair_model.c", "python_slave.c")
 # the win64 binary: the same layer with the stand-in that loads no Python (engine = 1 refused)
 WIN64_SOURCES = (*FMI2_LAYER, "gearpair_fmu.c", "gearpair_model.c", "no_python.c")

@@ -3,28 +3,23 @@
  *
  * - The FMI 2.0 co-simulation state machine per instance: a call not allowed in the
  *   instance's mode returns fmi2Error with a log message and changes nothing.
- * - fmi2Set* checks against the variable table: unknown value references, outputs, fixed
- *   parameters after initialization, non-finite or out-of-range values and integer codes
- *   outside their choices are refused with fmi2Error, the old value kept. A value refused
- *   before initialization ended is remembered until a valid one is set:
- *   fmi2ExitInitializationMode refuses naming it (`refuse`, `taken`).
+ * - fmi2Set* checks against the variable table (fmu_values.c): unknown value references,
+ *   outputs, fixed parameters after initialization, non-finite or out-of-range values and
+ *   integer codes outside their choices are refused with fmi2Error, the old value kept. A
+ *   value refused before initialization ended is remembered until a valid one is set:
+ *   fmi2ExitInitializationMode refuses naming it.
  * - Log messages of status warning and worse always reach the host's logger; status OK
- *   (information) follows loggingOn and fmi2SetDebugLogging.
- * - FMU states are bytes: the mode, the times, every variable's value and the model's state
- *   (fmu.h), kept in a list per instance (a pointer the instance did not hand out is
- *   refused, not dereferenced). Serialized, they carry a trailer (format tag, mode, length,
- *   CRC-32), so a truncated or altered state is refused before the model sees it.
+ *   (information) follows loggingOn and fmi2SetDebugLogging (fmu_log.c; the message goes
+ *   out through `fmu_emit` here).
+ * - FMU states: fmi2States.c over fmu_states.c.
  * - The resource location is read in every local file: form (`resource_folder`).
  */
 #define _GNU_SOURCE
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-
-#include "fmu.h"
 
 #include "fmi2_layer.h"
 
@@ -33,30 +28,12 @@ static const char *const MODE_NAME[] = {"instantiated", "initialization mode",
                                         "fatal error"};
 
 /* -- logging ---------------------------------------------------------------------------- */
-static int debug_enabled(const Instance *s, const char *category) {
-    if (!s->logging_on) return 0;
-    if (!s->categories) return 1;
-    for (size_t i = 0; i < s->n_categories; i++)
-        if (category && !strcmp(s->categories[i], category)) return 1;
-    return 0;
-}
-
-static const char *status_category(fmi2Status st) {
-    switch (st) {
-    case fmi2Warning: return "logStatusWarning";
-    case fmi2Discard: return "logStatusDiscard";
-    case fmi2Error: return "logStatusError";
-    case fmi2Fatal: return "logStatusFatal";
-    default: return "logAll";
-    }
-}
-
 /* The message goes out as the format argument itself with every '%' doubled: a C host
  * that formats it prints the text, and hosts that take it verbatim (fmpy's ctypes logger)
  * show it as it is (a literal "%" appears doubled there). */
 void fmu_emit(Instance *s, fmi2Status status, const char *category, const char *msg) {
     if (!s->host.logger) return;
-    if (status == fmi2OK && !debug_enabled(s, category)) return;
+    if (status == fmi2OK && !fmu_debug_enabled(s, category)) return;
     size_t n = strlen(msg), extra = 0;
     for (size_t i = 0; i < n; i++) extra += msg[i] == '%';
     char small[2048], *buf = n + extra < sizeof small ? small : malloc(n + extra + 1);
@@ -68,17 +45,8 @@ void fmu_emit(Instance *s, fmi2Status status, const char *category, const char *
     }
     *o = 0;
     s->host.logger(s->host.componentEnvironment, s->name, status,
-                   category ? category : status_category(status), buf);
+                   category ? category : fmu_status_category(status), buf);
     if (buf != small) free(buf);
-}
-
-void fmu_log(Instance *s, fmi2Status status, const char *fmt, ...) {
-    char buf[8192];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-    fmu_emit(s, status, status_category(status), buf);
 }
 
 /* -- checks ----------------------------------------------------------------------------- */
@@ -95,161 +63,29 @@ int fmi2_allowed(Instance *s, unsigned modes, const char *fn) {
     return 0;
 }
 
-/* The MODEL_VARS index of value reference vr of this type, or -1. */
-static int find_var(unsigned vr, char type) {
-    if (vr < MODEL_NVARS && MODEL_VARS[vr].vr == vr) return MODEL_VARS[vr].type == type ? (int)vr
-                                                                                        : -1;
-    for (int i = 0; i < MODEL_NVARS; i++)
-        if (MODEL_VARS[i].vr == vr && MODEL_VARS[i].type == type) return i;
-    return -1;
-}
-
-static const char *type_name(char t) {
-    return t == 'R' ? "Real" : t == 'I' ? "Integer" : "Boolean";
-}
-
-static int check_refs(Instance *s, const char *fn, const fmi2ValueReference vr[], size_t nvr,
-                      const void *values, char type) {
-    if (nvr == 0) return 1;
-    if (!vr || !values) {
-        fmu_log(s, fmi2Error, "%s: null value reference or value array for %zu values", fn, nvr);
-        return 0;
-    }
-    for (size_t i = 0; i < nvr; i++)
-        if (find_var(vr[i], type) < 0) {
-            fmu_log(s, fmi2Error, "%s: value reference %u is not a %s variable of this FMU", fn,
-                    vr[i], type_name(type));
-            return 0;
-        }
-    return 1;
-}
-
-static void range_text(const FmuVar *v, char *buf, size_t n) {
-    const char *u = v->unit[0] ? " " : "";
-    if (v->codes)
-        snprintf(buf, n, "allowed %s", v->codes);
-    else if (v->has_lo && v->has_hi)
-        snprintf(buf, n, "allowed %c%.10g, %.10g]%s%s", v->lo_open ? '(' : '[', v->lo, v->hi,
-                 u, v->unit);
-    else if (v->has_lo)
-        snprintf(buf, n, "allowed %s %.10g%s%s", v->lo_open ? ">" : ">=", v->lo, u, v->unit);
-    else if (v->has_hi)
-        snprintf(buf, n, "allowed <= %.10g%s%s", v->hi, u, v->unit);
-    else
-        snprintf(buf, n, "allowed any finite value");
-}
-
-/* Whether this instance may set variable v now; logs why not. */
-static int settable(Instance *s, const char *fn, const FmuVar *v) {
-    if (v->causality == 'o') {
-        fmu_log(s, fmi2Error, "%s: %s is an output and cannot be set", fn, v->name);
-        return 0;
-    }
-    if (s->mode == M_STEP && !v->tunable) {
-        fmu_log(s, fmi2Error, "%s: parameter %s is fixed (variability fixed): it can be set "
-                "only before fmi2ExitInitializationMode; it keeps its value (reset the FMU to "
-                "change it)", fn, v->name);
-        return 0;
-    }
-    return 1;
-}
-
-static int value_ok(Instance *s, const char *fn, const FmuVar *v, double x) {
-    int ok = isfinite(x) && !(v->has_lo && (v->lo_open ? x <= v->lo : x < v->lo)) &&
-             !(v->has_hi && x > v->hi);
-    if (!ok) {
-        char r[256];
-        range_text(v, r, sizeof r);
-        if (v->type == 'I')
-            fmu_log(s, fmi2Error, "%s: %s = %d is out of range; %s. The value is not taken: "
-                    "%s keeps its value", fn, v->name, (int)x, r, v->name);
-        else
-            fmu_log(s, fmi2Error, "%s: %s = %.10g%s%s is %s; %s. The value is not taken: %s "
-                    "keeps its value", fn, v->name, x, v->unit[0] ? " " : "", v->unit,
-                    isfinite(x) ? "out of range" : "not finite", r, v->name);
-    }
-    return ok;
-}
-
-/* -- values refused before initialization ended ---------------------------------------------- */
-/* Remember a refused fmi2Set* call (before or in initialization mode): the value at `bad`
- * was refused, the others of the call were not taken either. Returns fmi2Error. */
-static fmi2Status refuse(Instance *s, const char *fn, const fmi2ValueReference vr[],
-                         size_t nvr, size_t bad, char type, const double *values) {
-    if (s->mode != M_INSTANTIATED && s->mode != M_INIT) return fmi2Error;
-    for (size_t i = 0; i < nvr; i++) {
-        int k = find_var(vr[i], type);
-        if (k < 0 || MODEL_VARS[k].causality == 'o') continue;
-        if (!s->refused[k].what) s->n_refused++;
-        s->refused[k].what = i == bad ? 'r' : 'n';
-        s->refused[k].fn = fn;
-        if (type == 'R')
-            snprintf(s->refused[k].text, sizeof s->refused[k].text, "%.10g", values[i]);
-        else if (type == 'I')
-            snprintf(s->refused[k].text, sizeof s->refused[k].text, "%d", (int)values[i]);
-        else
-            snprintf(s->refused[k].text, sizeof s->refused[k].text, "%s",
-                     values[i] != 0.0 ? "true" : "false");
-    }
-    return fmi2Error;
-}
-
-/* A set that went through: its variables hold values the user asked for again. */
-static void taken(Instance *s, const fmi2ValueReference vr[], size_t nvr, char type) {
-    if (!s->n_refused) return;
-    for (size_t i = 0; i < nvr; i++) {
-        int k = find_var(vr[i], type);
-        if (k >= 0 && s->refused[k].what) {
-            s->refused[k].what = 0;
-            s->n_refused--;
-        }
-    }
-}
-
-static fmi2Status refused_report(Instance *s) {
-    char list[4096];
-    size_t o = 0;
-    list[0] = 0;
-    for (int k = 0; k < MODEL_NVARS && o < sizeof list; k++) {
-        if (!s->refused[k].what) continue;
-        o += (size_t)snprintf(list + o, sizeof list - o, "%s%s = %s was %s at %s",
-                              o ? ", " : "", MODEL_VARS[k].name, s->refused[k].text,
-                              s->refused[k].what == 'r' ? "refused"
-                                                        : "not taken (refused with the call)",
-                              s->refused[k].fn);
-    }
-    fmu_log(s, fmi2Error, "fmi2ExitInitializationMode refused: %s; set %s or leave %s unset "
-            "(the FMU stays in initialization mode)", list,
-            s->n_refused > 1 ? "valid values" : "a valid value",
-            s->n_refused > 1 ? "them" : "it");
-    return fmi2Error;
-}
+/* What the FMI 2.0 API calls the table's types and the end of initialization. */
+static const FmuApi API = {"Real", "Integer", "Boolean", NULL, -1, "fmi2ExitInitializationMode",
+                           "initialization mode"};
 
 /* -- get and set, for any type ------------------------------------------------------------ */
 #define GET_MODES (B(M_INIT) | B(M_STEP) | B(M_TERMINATED))
 #define SET_MODES (B(M_INSTANTIATED) | B(M_INIT) | B(M_STEP))
 
-/* fmi2Get* of nvr values of `type` into out (as doubles: the caller converts). */
+/* fmi2Get* of nvr values of `type` into dst: allowed and every value reference known. */
 static int get_values(Instance *s, const char *fn, char type, const fmi2ValueReference vr[],
                       size_t nvr, const void *dst) {
     if (!s || !fmi2_allowed(s, GET_MODES, fn)) return 0;
-    return check_refs(s, fn, vr, nvr, dst, type);
+    return fmu_check_refs(s, &API, fn, type, vr, nvr, dst, nvr);
 }
 
-/* fmi2Set*: every value checked first; none taken when one is refused. */
+/* fmi2Set* (x: the values as doubles): every value checked first; none taken when one is
+ * refused. */
 static fmi2Status set_values(Instance *s, const char *fn, char type,
                              const fmi2ValueReference vr[], size_t nvr, const void *src,
                              const double *x) {
     if (!s || !fmi2_allowed(s, SET_MODES, fn)) return fmi2Error;
-    if (!check_refs(s, fn, vr, nvr, src, type)) return fmi2Error;
-    for (size_t i = 0; i < nvr; i++) {
-        const FmuVar *v = &MODEL_VARS[find_var(vr[i], type)];
-        if (!settable(s, fn, v) || (type != 'B' && !value_ok(s, fn, v, x[i])))
-            return refuse(s, fn, vr, nvr, i, type, x);
-    }
-    for (size_t i = 0; i < nvr; i++) s->value[find_var(vr[i], type)] = x[i];
-    taken(s, vr, nvr, type);
-    return fmi2OK;
+    return fmu_set_values(s, &API, fn, type, vr, nvr, src, nvr, x, s->mode == M_STEP)
+               ? fmi2Error : fmi2OK;
 }
 
 /* fmi2SetInteger and fmi2SetBoolean: the values as doubles (a Boolean as 0 or 1). */
@@ -311,14 +147,6 @@ static int resource_folder(const char *uri, char *out, size_t n) {
     return 0;
 }
 
-static void start_values(Instance *s) {
-    for (int i = 0; i < MODEL_NVARS; i++) s->value[i] = MODEL_VARS[i].start;
-    memset(s->refused, 0, sizeof s->refused);
-    s->n_refused = 0;
-    s->start_time = 0.0;
-    s->last_successful_time = NAN;
-}
-
 /* ======================================================================================== */
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
@@ -335,7 +163,7 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
     s->name = strdup(name ? name : "");
     s->logging_on = logging_on == fmi2True;
     s->mode = M_INSTANTIATED;
-    start_values(s);
+    fmu_start_values(s);
     if (!s->name) goto fail;
     if (type != fmi2CoSimulation) {
         fmu_log(s, fmi2Error, "fmi2Instantiate: this FMU supports co-simulation only");
@@ -364,17 +192,7 @@ fail:
 EXPORT void fmi2FreeInstance(fmi2Component c) {
     Instance *s = c;
     if (!s) return;
-    for (FmuState *st = s->states, *nx; st; st = nx) {
-        nx = st->next;
-        st->magic = 0;
-        free(st->bytes);
-        free(st);
-    }
-    model_free(s);
-    for (size_t i = 0; i < s->n_categories; i++) free(s->categories[i]);
-    free(s->categories);
-    free(s->resources);
-    free(s->name);
+    fmu_release(s);
     free(s);
 }
 
@@ -382,33 +200,16 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
                                       const fmi2String categories[]) {
     Instance *s = c;
     if (!s) return fmi2Error;
-    if (n && !categories) {
-        fmu_log(s, fmi2Error, "fmi2SetDebugLogging: %zu categories but a null array", n);
-        return fmi2Error;
-    }
-    char **copy = NULL;
-    if (n) {
-        copy = calloc(n, sizeof *copy);
-        if (!copy) return fmi2Error;
-        for (size_t i = 0; i < n; i++) copy[i] = strdup(categories[i] ? categories[i] : "");
-    }
-    for (size_t i = 0; i < s->n_categories; i++) free(s->categories[i]);
-    free(s->categories);
-    s->categories = copy;
-    s->n_categories = n;
-    s->logging_on = on == fmi2True;
-    return fmi2OK;
+    return fmu_set_debug_logging(s, "fmi2SetDebugLogging", on == fmi2True, n, categories)
+               ? fmi2Error : fmi2OK;
 }
 
 EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol,
                                       fmi2Real start, fmi2Boolean stop_defined, fmi2Real stop) {
     Instance *s = c;
     if (!s || !fmi2_allowed(s, B(M_INSTANTIATED), "fmi2SetupExperiment")) return fmi2Error;
-    if (!isfinite(start) || (stop_defined && !(stop >= start))) {
-        fmu_log(s, fmi2Error, "fmi2SetupExperiment: startTime = %.17g s must be finite and "
-                "stopTime (%.17g s) not before it", start, stop_defined ? stop : start);
+    if (!fmu_times_ok(s, "fmi2SetupExperiment", start, stop_defined != 0, stop))
         return fmi2Error;
-    }
     s->start_time = start;
     model_setup_experiment(s, tol_defined == fmi2True, tol);
     return fmi2OK;
@@ -424,7 +225,10 @@ EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *s = c;
     if (!s || !fmi2_allowed(s, B(M_INIT), "fmi2ExitInitializationMode")) return fmi2Error;
-    if (s->n_refused) return refused_report(s);
+    if (s->n_refused) {
+        fmu_refused_report(s, &API);
+        return fmi2Error;
+    }
     /* refused (e.g. a combination of parameters): the instance stays in initialization
      * mode, so the master may correct a parameter and call this again */
     fmi2Status st = model_exit_init(s);
@@ -448,7 +252,7 @@ EXPORT fmi2Status fmi2Reset(fmi2Component c) {
     Instance *s = c;
     if (!s || !fmi2_allowed(s, ANY_LIVE, "fmi2Reset")) return fmi2Error;
     model_reset(s);
-    start_values(s);
+    fmu_start_values(s);
     s->mode = M_INSTANTIATED;
     return fmi2OK;
 }
@@ -458,7 +262,7 @@ EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], si
                               fmi2Real value[]) {
     Instance *s = c;
     if (!get_values(s, "fmi2GetReal", 'R', vr, nvr, value)) return fmi2Error;
-    for (size_t i = 0; i < nvr; i++) value[i] = s->value[find_var(vr[i], 'R')];
+    for (size_t i = 0; i < nvr; i++) value[i] = s->value[fmu_find_var(&API, vr[i], 'R')];
     return fmi2OK;
 }
 
@@ -466,7 +270,8 @@ EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[],
                                  fmi2Integer value[]) {
     Instance *s = c;
     if (!get_values(s, "fmi2GetInteger", 'I', vr, nvr, value)) return fmi2Error;
-    for (size_t i = 0; i < nvr; i++) value[i] = (fmi2Integer)s->value[find_var(vr[i], 'I')];
+    for (size_t i = 0; i < nvr; i++)
+        value[i] = (fmi2Integer)s->value[fmu_find_var(&API, vr[i], 'I')];
     return fmi2OK;
 }
 
@@ -475,7 +280,7 @@ EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[],
     Instance *s = c;
     if (!get_values(s, "fmi2GetBoolean", 'B', vr, nvr, value)) return fmi2Error;
     for (size_t i = 0; i < nvr; i++)
-        value[i] = s->value[find_var(vr[i], 'B')] != 0.0 ? fmi2True : fmi2False;
+        value[i] = s->value[fmu_find_var(&API, vr[i], 'B')] != 0.0 ? fmi2True : fmi2False;
     return fmi2OK;
 }
 
@@ -521,12 +326,7 @@ EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolea
     Instance *s = c;
     (void)no_set;
     if (!s || !fmi2_allowed(s, B(M_STEP), "fmi2DoStep")) return fmi2Error;
-    if (!isfinite(t) || !isfinite(h) || !(h > 0.0)) {
-        fmu_log(s, fmi2Error, "fmi2DoStep refused: currentCommunicationPoint = %.17g s and "
-                "communicationStepSize = %.17g s must be finite and the step size > 0; the "
-                "FMU state is unchanged", t, h);
-        return fmi2Error;
-    }
+    if (!fmu_step_ok(s, "fmi2DoStep", t, h)) return fmi2Error;
     /* A refused step (fmi2Error) or one failed inside (fmi2Discard) leaves the state of the
      * step start, so the instance stays in step mode either way: the master may repeat the
      * step with other inputs or a smaller size. */

@@ -416,7 +416,7 @@ def _fmu_config():
 # -- the FMI 3.0 FMU: GearPair3.fmu -----------------------------------------------------------
 FMI3_MODEL = "GearPair3"
 # the generic FMI 3 layer over the same model part; the win64 binary loads no Python
-FMI3_LAYER = ("fmi3Functions.c", "fmi3_states.c", "fmi3_none.c")
+FMI3_LAYER = ("fmi3Functions.c", "fmi3_states.c", "fmi3_none.c", *FMU_LAYER)
 FMI3_SOURCES = (*FMI3_LAYER, "gearpair_fmu.c", "gearpair_model.c", "python_slave.c")
 FMI3_WIN64_SOURCES = (*FMI3_LAYER, "gearpair_fmu.c", "gearpair_model.c", "no_python.c")
 FMI3_PLATFORM = {"linux64": ("x86_64-linux", ".so"), "win64": ("x86_64-windows", ".dll")}

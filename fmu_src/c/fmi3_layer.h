@@ -1,13 +1,13 @@
 /* The generic FMI 3.0 co-simulation layer's own declarations, shared by its files:
  * fmi3Functions.c (instances, states of the state machine, values, steps and events),
- * fmi3_states.c (FMU states) and fmi3_none.c (what the FMU does not provide). The model
- * part sees an instance as the Instance of fmu.h, its first member. */
+ * fmi3_states.c (FMU states) and fmi3_none.c (what the FMU does not provide), beside what
+ * every version's layer shares (fmu_layer.h). The model part sees an instance as the
+ * Instance of fmu.h, its first member. */
 #ifndef FMI3_LAYER_H
 #define FMI3_LAYER_H
 
-#include <stdio.h> /* first: mingw-w64 defines the printf format fmu.h's fmu_log checks */
+#include "fmu_layer.h"
 
-#include "fmu.h"
 #include "fmi3Functions.h"
 
 /* The states of an instance (FMI 3.0 co-simulation, section 4.2): the layer provides no
@@ -15,8 +15,6 @@
  * of its own after a failed step (a discarded step leaves the state of its start, in Step
  * Mode). */
 typedef enum { S_INSTANTIATED, S_INIT, S_EVENT, S_STEP, S_TERMINATED } State;
-#define IN(m, set) (((set) >> (m)) & 1u)
-#define B(m) (1u << (m))
 #define ANY (B(S_INSTANTIATED) | B(S_INIT) | B(S_EVENT) | B(S_STEP) | B(S_TERMINATED))
 #define GET_STATES (B(S_INIT) | B(S_EVENT) | B(S_STEP) | B(S_TERMINATED))
 #define SET_STATES (B(S_INSTANTIATED) | B(S_INIT) | B(S_EVENT) | B(S_STEP))
@@ -37,7 +35,4 @@ typedef struct {
 /* Whether the call fn is allowed in the instance's state (one of `states`) and the model
  * can still run; logs why not (fmi3Functions.c). */
 int fmi3_allowed(Fmi3 *f, unsigned states, const char *fn);
-/* Free the instance's FMU states (fmi3_states.c). */
-void fmi3_free_states(Fmi3 *f);
-
 #endif

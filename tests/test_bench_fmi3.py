@@ -38,9 +38,10 @@ def test_summarize_takes_medians_of_the_per_round_ratios():
     assert out["fmi3_events_over_fmi3"] == pytest.approx(1.2)  # rounds: 1.0, 1.2, 1.2
     v = out["variants"]["fmi3_events"]
     assert v["early_per_s"] == pytest.approx(2000.0) and v["calls_per_s"] == 12000.0
-    assert v["wall_median_us"] == pytest.approx(11.0)
-    # 0.2 x fmi3's 1.1e-4 s per 1e-3 s simulated, per early return (2000 a simulated s)
-    assert out["fmi3_events_extra_us"] == pytest.approx(1e6 * 0.2 * 0.11 / 2000.0)
+    assert v["wall_mean_us"] == pytest.approx((11.0 + 24.0 + 10.8) / 3)
+    assert v["per_sim_s"] == pytest.approx(4.58e-4 / 3e-3)
+    # 0.2 x fmi3's 4e-4 s per 3e-3 s simulated, per early return (2000 a simulated s)
+    assert out["fmi3_events_extra_us"] == pytest.approx(1e6 * 0.2 * (4 / 30) / 2000.0)
     assert out["fmi3_events_extra_us_cpu"] == pytest.approx(0.0)
 
 

@@ -162,14 +162,17 @@ def summarize(got: dict) -> dict:
     """Per variant its cost and counts, and the ratios that count, from the host's result.
 
     Per variant: ``wall_us`` / ``cpu_us`` per communication point, round by round;
-    ``wall_median_us``, ``wall_best_us`` (and ``cpu_``); ``per_sim_s`` / ``per_sim_s_cpu``
-    (s of the loop per simulated s, the median round: a round that the load slowed does
-    not count); ``calls_per_s``, ``early_per_s``, ``events_per_s`` (per simulated s, over
-    all rounds); ``digest``. Ratios (medians of the per-round ratios, and of the best
-    rounds): ``fmi3_over_fmi2`` (and ``_cpu``, ``_best``); per early-return variant
-    ``<v>_over_fmi3`` (and ``_cpu``) and ``<v>_extra_us`` (and ``_cpu``), the extra cost
-    per early return (us: the run's extra cost per simulated s over fmi3's, that median
-    ratio minus 1 times fmi3's cost per simulated s, per early return; noise makes it
+    ``wall_mean_us`` (over all rounds), ``wall_best_us`` (and ``cpu_``); ``per_sim_s`` /
+    ``per_sim_s_cpu`` (s of the loop per simulated s, over all rounds); ``calls_per_s``,
+    ``early_per_s``, ``events_per_s`` (per simulated s); ``digest``. The means, not the
+    medians, of the rounds: a shared virtual machine's speed drifts from round to round
+    (7 to 15 us per point within a minute under load 3), the variants of a round alike,
+    so a variant's median round is whichever side of a jump it falls on, while its mean
+    has every round. Ratios (medians of the per-round ratios, which compare times taken
+    tens of milliseconds apart; and of the best rounds): ``fmi3_over_fmi2`` (and ``_cpu``,
+    ``_best``); per early-return variant ``<v>_over_fmi3`` (and ``_cpu``) and
+    ``<v>_extra_us`` (and ``_cpu``), the extra cost per early return (us: that median ratio
+    minus 1 times fmi3's mean cost per simulated s, per early return; noise makes it
     negative where the extra cost is below what the clocks resolve);
     ``identical``: the outputs at every communication point have the same bits in fmi2 and
     fmi3 (``identical_early``: in the early-return variants too)."""
@@ -180,10 +183,9 @@ def summarize(got: dict) -> dict:
         wall = [1e6 * x / n for x in v["wall_s"]]
         cpu = [1e6 * x / n for x in v["cpu_s"]]
         out["variants"][name] = {
-            "wall_us": wall, "cpu_us": cpu, "wall_median_us": median(wall),
-            "wall_best_us": min(wall), "cpu_median_us": median(cpu), "cpu_best_us": min(cpu),
-            "per_sim_s": median(v["wall_s"]) / (n * h),
-            "per_sim_s_cpu": median(v["cpu_s"]) / (n * h),
+            "wall_us": wall, "cpu_us": cpu, "wall_mean_us": sum(wall) / rounds,
+            "wall_best_us": min(wall), "cpu_mean_us": sum(cpu) / rounds, "cpu_best_us": min(cpu),
+            "per_sim_s": sum(v["wall_s"]) / sim, "per_sim_s_cpu": sum(v["cpu_s"]) / sim,
             "calls_per_s": v["calls"] / sim, "early_per_s": v["early"] / sim,
             "events_per_s": v["events"] / sim, "digest": v["digest"]}
     var = got["variants"]

@@ -15,7 +15,6 @@ struct GpModel {
     double *state, *saved;
     size_t state_words;
     double block[GP_N_X];
-    int lti; /* the exact propagator steps this model */
     int early; /* steps may return early at a contact event (FMI 3) */
     int64_t n; /* tracked tooth pairs */
 };
@@ -44,7 +43,6 @@ static int64_t make_records(GpModel *m) {
     const int64_t *flag = (const int64_t *)m->setup[GPS_FLAG];
     int64_t n = flag[GP_I_NP], ntab = flag[GP_I_NTAB];
     if (n < 1 || n > GP_N_PAIRS_MAX) return -1;
-    m->lti = flag[GP_I_LTI] != 0;
     m->n = n;
     int64_t nk = flag[GP_I_KIND] == GP_KIND_CUBIC ? 4 * (ntab - 1) : ntab;
     const int64_t md_len[6] = {GP_N_MP, GP_N_MI, GP_N_Y, ntab, nk, ntab - 1};
@@ -114,7 +112,7 @@ int64_t gp_model_step(GpModel *m, double t, double h) {
     x[GP_X_TEND] = t + h;
     x[GP_X_FMU] = m->early ? 2.0 : 1.0;
     int64_t table = (int64_t)(intptr_t)m->table;
-    return m->lti ? gearpair_step_lti(table) : gearpair_step(table);
+    return m->early ? gearpair_step_early(table) : gearpair_step(table);
 }
 
 void gp_model_early_return(GpModel *m, int on) { m->early = on != 0; }

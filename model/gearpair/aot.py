@@ -6,8 +6,9 @@ writes them as one relocatable object with C names:
 
 - ``gearpair_setup``: the model's records from the gear data and choices (`fast.setup`);
 - ``gearpair_init``: the static equilibrium at the start time and its outputs (`fast.native`);
-- ``gearpair_step``, ``gearpair_step_lti``: one communication step (Runge-Kutta or the
-  exact propagator; `fast.native`).
+- ``gearpair_step``: one communication step (`fast.native`);
+- ``gearpair_step_early``: the same step where it may return early at a contact event
+  (FMI 3's early return; `fast.native`).
 
 It is numba's own code, the same machine code the Python API runs for that CPU (one source,
 the same bits), taken at the LLVM level: each entry point's module as numba optimized it,
@@ -45,7 +46,7 @@ from pathlib import Path
 ENTRIES = (("gearpair_setup", "fast.setup", "setup_entry"),
            ("gearpair_init", "fast.native", "init_entry"),
            ("gearpair_step", "fast.native", "step_entry"),
-           ("gearpair_step_lti", "fast.native", "step_lti_entry"))
+           ("gearpair_step_early", "fast.native", "step_early_entry"))
 LIBC = ("fmod", "memset")  # what the object may need from outside
 #: The Windows x86-64 target of the win64 object (mingw-w64's: COFF, the Win64 calling
 #: convention), the CPU it is made for there and its file name.

@@ -36,7 +36,6 @@ from ..stepblock import (
 from .detlinalg import STATUS_TEXT
 from .layout import (
     I_IX,
-    I_LTI,
     I_MAXEV,
     I_NIX,
     J_NEVTOT,
@@ -87,7 +86,7 @@ from .layout import (
     Work,
 )
 from .loop import eval_entry, outputs_entry, reset_entry, run_grid_entry
-from .native import compiled, handoff_table, step_entry, step_lti_entry
+from .native import compiled, handoff_table, step_entry
 from .setup import FastOptions, run_setup  # noqa: F401 - FastOptions re-exported
 from .setupmath import row_sum
 from .tableaux import RK_NK
@@ -156,12 +155,10 @@ class FastEngine(Engine):
         self._wk = work_buffers(n)
         # the compiled entry points take plain tuples (typed faster per call than named)
         self._args = (tuple(self._md), tuple(self._wk), tuple(self._hs))
-        # None compiles no exact propagator for an engine that does not use it (`loop.piece`)
-        self._lti = True if mi[I_LTI] else None
         # the compiled step (`native`): its hand-off table, the rollback copy of the state and
         # the step block (this engine's own, or a caller's: `bind_block`)
         self._saved = np.zeros_like(self._state)
-        self._entry = step_lti_entry if self._lti else step_entry
+        self._entry = step_entry
         self._step = None  # the compiled step as a Python callable, once loaded (`native_step`)
         self.bind_block(np.zeros(N_X))
         self._outputs: Outputs | None = None  # cache, valid until the state changes
@@ -329,8 +326,7 @@ class FastEngine(Engine):
         # hands the inputs on read-only: a signature of writable ones is never loaded)
         grid, T, W, _ = grid_inputs(0.0, np.array([0.0, 1e-9]), 1000.0, 10.0)
         sig = tuple(numba.typeof(a) for a in
-                    (*self._args, grid, (T, W, np.zeros(1)), np.zeros((N_REC, 2)),
-                     self._lti))
+                    (*self._args, grid, (T, W, np.zeros(1)), np.zeros((N_REC, 2))))
         if sig in run_grid_entry.overloads:
             return
         warm = FastEngine(*self._made[0], **self._made[1])
@@ -347,7 +343,7 @@ class FastEngine(Engine):
         n = len(grid)
         rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
         self._stale()
-        filled = run_grid_entry(*self._args, grid, (T, W, yad), rec, self._lti)
+        filled = run_grid_entry(*self._args, grid, (T, W, yad), rec)
         if filled > 1:
             self._last = (float(grid[filled - 2]), float(grid[filled - 1]))
         if filled < n:

@@ -227,11 +227,11 @@ def piece(md, wk, hs, nact, tb):
             return 0
 
 
-@jit
+@jit_hot
 def piece_exact(md, wk, hs, nact, tb):
     """`piece` by the exact propagator (`lti.piece_lti`; no friction: only the separation
-    events). A function of its own, so that `piece` is compiled once for both kinds of
-    engine and the propagator only for the engines that use it (`segment`)."""
+    events). Inlined into `segment` beside `piece`: a call would pass the records by value
+    once per piece, some 7 % of an exact-propagator step."""
     return piece_lti(md, wk, piece_at(hs, nact), hs, tb)
 
 
@@ -317,11 +317,12 @@ def stops_early(wk, hs, nact, early, cs):
 
 @jit_hot
 def segment(md, wk, hs, tb, lti):
-    """One segment between known boundaries (ReferenceEngine.advance's loop body)."""
+    """One segment between known boundaries (ReferenceEngine.advance's loop body); ``lti``:
+    by the exact propagator (`piece_exact`) rather than Runge-Kutta (`piece`)."""
     nact = segment_start(md, wk, hs, tb, True)
     summ = wk.summary
     while hs.clock[T_T] < tb:
-        if lti is None:  # numba prunes the other branch for the type of lti
+        if not lti:
             r = piece(md, wk, hs, nact, tb)
         else:
             r = piece_exact(md, wk, hs, nact, tb)
@@ -355,7 +356,7 @@ def segment_early(md, wk, hs, tb, lti, early, cs):
         hs.mode[J_RESUME] = 1
         return True, cs
     while hs.clock[T_T] < tb:
-        if lti is None:
+        if not lti:
             r = piece(md, wk, hs, nact, tb)
         else:
             r = piece_exact(md, wk, hs, nact, tb)
@@ -450,21 +451,25 @@ def next_boundary(md, wk, hs, noff, span, last_b):
 
 
 @jit_hot
-def advance(md, wk, hs, t_end, torque, speed, lti, early):
+def advance(md, wk, hs, t_end, torque, speed, early):
     """ReferenceEngine.advance: segments between the known boundaries, then t_end.
 
-    ``lti``: None for an engine without the exact propagator (numba then compiles no
-    `piece_exact`), else True (flag I_LTI). Inlined into the two functions that step
+    The engine's flag I_LTI says whether its pieces go by the exact propagator
+    (`piece_exact`) or by Runge-Kutta (`piece`): a test at run time, so that one compiled
+    step serves both kinds of engine (a compile per kind took a quarter of a first compile).
+    Inlined into the two functions that step
     (`native.step`, `run_grid`): a compiled function of its own would be optimized by LLVM
     once more with everything it calls, and the grid would pass the records by value per
     point.
 
-    ``early``: (NaN, NaN), or for an FMU's early return (the step's start, t_end): the
+    ``early``: None (numba then compiles no early return: the engine's own steps and the
+    FMI 2 FMU), or (NaN, NaN), or for an FMU's early return (the step's start, t_end): the
     advance then ends at the first change of the contact state strictly inside the step,
     with the switch applied (`segment_early`); the clock says where. Until that change it
     computes what it computes without early return, to the bit.
     """
     st, summ = hs.clock, wk.summary
+    lti = md.flag[I_LTI] != 0
     for i in range(N_OUT):
         summ[i] = 0.0
     summ[O_FMAX] = -np.inf
@@ -482,18 +487,20 @@ def advance(md, wk, hs, t_end, torque, speed, lti, early):
     s_tol = abs(v1) * 16.0 * 2.220446049250313e-16 * max(1.0, abs(t_end))
     s_lim = s_end + s_tol if speed > 0.0 else s_end - s_tol
     last_b = np.nan
-    watch = early[0] == early[0]  # not NaN
+    watch = False
     cs = -1
-    if watch:  # the contact state at the step's start
-        cs = contact_state(wk, hs, current_active(md, wk, hs))
-    else:  # a segment an early return cut is gone on with like any other
+    if early is not None:  # numba prunes this branch for early None
+        watch = early[0] == early[0]  # not NaN
+        if watch:  # the contact state at the step's start
+            cs = contact_state(wk, hs, current_active(md, wk, hs))
+    if not watch:  # a segment an early return cut is gone on with like any other
         hs.mode[J_RESUME] = 0
     while True:
         tb, ib, last_b, repeat = next_boundary(md, wk, hs, noff,
                                                (t_start, s_start, t_end, s_lim), last_b)
         if repeat:
             continue
-        if watch:
+        if early is not None and watch:
             stopped, cs = segment_early(md, wk, hs, tb, lti, early, cs)
             if stopped and summ[O_STATUS] == STATUS_OK:
                 hs.mode[J_NEVTOT] += int(summ[O_NEV])
@@ -565,7 +572,7 @@ def outputs_now(md, wk, hs):
 
 
 @jit_hot
-def run_grid(md, wk, hs, grid, inputs, rec, lti):
+def run_grid(md, wk, hs, grid, inputs, rec):
     """`advance` to every point of ``grid`` (``inputs``: torque, speed and load-shaft end
     rate of interval i, held from grid[i]) and record the outputs and step figures there,
     without a return to Python per point.
@@ -585,7 +592,7 @@ def run_grid(md, wk, hs, grid, inputs, rec, lti):
     for i in range(1, n):
         t0, stick0, sep0, back0 = st[T_T], st[T_STICK], st[T_SEP], st[T_BACK]
         y[Y_AD] = yad[i - 1]
-        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1], lti, (np.nan, np.nan))
+        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1], None)
         if summ[O_STATUS] != STATUS_OK:
             return i
         outputs_now(md, wk, hs)
@@ -612,8 +619,8 @@ def reset_settle(md, wk, hs):
 
 # -- entry points from Python: plain tuples in, named records inside ------------------------
 @jit_entry
-def run_grid_entry(md, wk, hs, grid, inputs, rec, lti):
-    return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, inputs, rec, lti)
+def run_grid_entry(md, wk, hs, grid, inputs, rec):
+    return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, inputs, rec)
 
 
 @jit_entry

@@ -3,7 +3,7 @@
 A *hand-off table* (an int64 array, `handoff_table`) holds the address and shape of every
 array of an engine's records, of its state buffer, of a rollback copy of it and of a step
 block (`layout.X_*`: the end of the step, the inputs, the step record). The compiled step
-(`step_entry`, or `step_lti_entry` for an engine with the exact propagator) rebuilds the
+(`step_entry`; `step_early_entry` where a step may return early) rebuilds the
 records from the table and advances the engine in place: no Python object is touched, so the
 FMU's C layer calls it through its C address (`step_address`) without the interpreter, and
 Python calls the same compiled code through numba's dispatcher (`FastEngine.advance_values`,
@@ -166,13 +166,13 @@ def first_not_finite(o, fig):
 
 
 @jit_hot
-def step(tab, lti):
+def step(tab, early_ok):
     """One step of the engine of the hand-off table ``tab`` (module docstring); returns a
-    `STEP_*` code."""
+    `STEP_*` code. ``early_ok``: None compiles a step that never returns early (numba
+    prunes the early return for its type), True one that does where ``X_FMU`` is 2."""
     md, wk, hs, (x, state, saved) = records(tab)
     st, mp = hs.clock, md.par
     fmu = x[X_FMU] != 0.0
-    early = (st[T_T], x[X_TEND]) if x[X_FMU] == 2.0 else (np.nan, np.nan)
     if fmu:
         if refused(x, st):
             return STEP_REFUSED
@@ -182,7 +182,11 @@ def step(tab, lti):
     start = (st[T_T], st[T_STICK], st[T_SEP], st[T_BACK])
     hs.y[Y_AD] = 0.0 if x[X_LOADON] == 0.0 else \
         -mp[P_RB2] * (x[X_LOAD] - speed * mp[P_RATIO])
-    advance(md, wk, hs, t_end, x[X_TORQUE], speed, lti, early)
+    if early_ok is None:
+        advance(md, wk, hs, t_end, x[X_TORQUE], speed, None)
+    else:
+        early = (start[0], t_end) if x[X_FMU] == 2.0 else (np.nan, np.nan)
+        advance(md, wk, hs, t_end, x[X_TORQUE], speed, early)
     code = STEP_FAILED
     if wk.summary[O_STATUS] == STATUS_OK:
         outputs_now(md, wk, hs)
@@ -244,13 +248,15 @@ def initialize(tab):
 # -- entry points: called from Python through numba's dispatcher, from C at their address --
 @jit_entry
 def step_entry(table_address):
-    """`step` of an engine that integrates by Runge-Kutta (``FastEngine._lti`` None)."""
+    """`step` of the engine of the hand-off table at ``table_address``."""
     return step(_array_at(table_address, (N_TABLE,), 0), None)
 
 
 @jit_entry
-def step_lti_entry(table_address):
-    """`step` of an engine with the exact propagator (``FastEngine._lti`` True)."""
+def step_early_entry(table_address):
+    """`step` that may return early (``X_FMU`` 2: FMI 3's early return), compiled only
+    where it is called (the FMU's object, `gearpair.aot`): the engine's own steps never
+    return early."""
     return step(_array_at(table_address, (N_TABLE,), 0), True)
 
 

@@ -31,7 +31,7 @@ from gearpair.fast import (
 )
 
 MODULES = (contact, events, extremes, loop, lti, native, rk, setup, start, switching, views)
-ENTRIES = {"step_entry", "step_early_entry", "init_entry", "run_grid_entry", "outputs_entry",
+ENTRIES = {"step_entry", "step_early_entry", "init_entry", "outputs_entry",
            "eval_entry", "reset_entry", "setup_entry", "compliances_entry"}
 
 

@@ -72,7 +72,7 @@ static int64_t make_records(GpModel *m) {
     put(m->table, k++, m->block, &nx, 1);
     put(m->table, k++, m->state, &words, 1);
     put(m->table, k++, m->saved, &words, 1);
-    return k == GP_HANDOFF_ARRAYS ? 0 : -1;
+    return k == GP_HANDOFF_RUN ? 0 : -1; /* a recorded run's arrays stay empty (zero) */
 }
 
 GpModel *gp_model_new(const double *gear, const double *choice, int64_t *status,

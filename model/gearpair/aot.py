@@ -392,9 +392,12 @@ def engine_header(package: str = "gearpair") -> str:
             f"#define GP_CLOCK {layout.HybridState._fields.index('clock')}", ""]
     out += ["/* the hand-off table: 4 words per array (address, dimensions), in this order:",
             " * ModelData (6), Work (18), HybridState (6: views of the state buffer), the step",
-            " * block, the state buffer, its rollback copy; kinds f/i (float64/int64) and ndim */",
+            " * block, the state buffer, its rollback copy, then from GP_HANDOFF_RUN on the",
+            " * arrays of a recorded run (the Python API's; zero words, empty, for a step);",
+            " * kinds f/i (float64/int64) and ndim */",
             f"#define GP_HANDOFF_WORDS {native.N_TABLE}",
             f"#define GP_HANDOFF_ARRAYS {len(kinds)}",
+            f"#define GP_HANDOFF_RUN {native.K_GRID}",
             names("GP_HANDOFF_KIND", kinds),
             f"#define GP_N_PAIRS_MAX {N_PAIRS_MAX}",
             "/* Work's shapes for n tracked pairs: GP_WORK_SHAPE[n - 1][array][dim] */",

@@ -142,7 +142,7 @@ class StepSummary(NamedTuple):
 
 OUTPUT_NAMES = tuple(f.name for f in fields(Outputs))
 # What `Engine.run` records at every grid point besides the outputs: the step figures of the
-# interval ending there (the compiled recorder, `fast.loop.run_grid`, writes them in this order)
+# interval ending there (the compiled recorder, `fast.loop.record_row`, writes them in this order)
 RECORDED_FIGURES = ("stick_fraction", "separation_fraction", "mesh_force_max", "n_events",
                     "back_fraction", "mesh_force_mean", "mesh_force_min")
 # Units of both records' fields (SI; "1" dimensionless)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from ..effects import Effects
@@ -85,8 +84,8 @@ from .layout import (
     HybridState,
     Work,
 )
-from .loop import eval_entry, outputs_entry, reset_entry, run_grid_entry
-from .native import compiled, handoff_table, step_entry
+from .loop import eval_entry, outputs_entry, reset_entry
+from .native import compiled, handoff_table, set_grid, step_entry
 from .setup import FastOptions, run_setup  # noqa: F401 - FastOptions re-exported
 from .setupmath import row_sum
 from .tableaux import RK_NK
@@ -136,7 +135,6 @@ class FastEngine(Engine):
                  rtol: float = 1e-8, **options) -> None:
         opts = FastOptions(**options)
         check_rtol(rtol)
-        self._made = ((params, effects, rtol), options)  # for a throwaway twin (`warm_up`)
         m = self.model = Model.build(params, effects)
         self.rtol = float(rtol)
         st = m.stiff
@@ -319,19 +317,9 @@ class FastEngine(Engine):
                 int(out[O_CFAIL]), out[O_DFAIL], out[O_BFAIL]))
 
     def warm_up(self) -> None:
-        """Load the compiled recorder of `run` (from the on-disk cache; the first call in a
-        process takes 0.1-1 s) through a throwaway engine of the same data, unless it is
-        loaded: the state and work buffers of this one stay untouched."""
-        # the argument types of the throwaway run below, as `run` makes them (grid_inputs
-        # hands the inputs on read-only: a signature of writable ones is never loaded)
-        grid, T, W, _ = grid_inputs(0.0, np.array([0.0, 1e-9]), 1000.0, 10.0)
-        sig = tuple(numba.typeof(a) for a in
-                    (*self._args, grid, (T, W, np.zeros(1)), np.zeros((N_REC, 2))))
-        if sig in run_grid_entry.overloads:
-            return
-        warm = FastEngine(*self._made[0], **self._made[1])
-        warm.reset(0.0, 1000.0, 10.0)
-        warm.run(grid, 1000.0, 10.0)
+        """Load the compiled step, which `run` and `advance_values` share (from the on-disk
+        cache; the first call in a process takes 0.1-1 s), unless it is loaded."""
+        self.native_step()
 
     def run(self, grid, torque, speed, load_speed=None) -> dict:
         """`Engine.run` in one compiled call: the same records as `advance_values` +
@@ -343,7 +331,13 @@ class FastEngine(Engine):
         n = len(grid)
         rec = np.zeros((N_REC, n))  # one contiguous row per signal: returned without a copy
         self._stale()
-        filled = run_grid_entry(*self._args, grid, (T, W, yad), rec)
+        step, _, table = self.native_step()
+        self._block[X_FMU] = 0.0
+        set_grid(self._table, (grid, T, W, yad, rec))
+        try:
+            filled = step(table)  # a recorded run (`native.step`)
+        finally:
+            set_grid(self._table)
         if filled > 1:
             self._last = (float(grid[filled - 2]), float(grid[filled - 1]))
         if filled < n:

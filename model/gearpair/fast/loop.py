@@ -457,10 +457,9 @@ def advance(md, wk, hs, t_end, torque, speed, early):
     The engine's flag I_LTI says whether its pieces go by the exact propagator
     (`piece_exact`) or by Runge-Kutta (`piece`): a test at run time, so that one compiled
     step serves both kinds of engine (a compile per kind took a quarter of a first compile).
-    Inlined into the two functions that step
-    (`native.step`, `run_grid`): a compiled function of its own would be optimized by LLVM
-    once more with everything it calls, and the grid would pass the records by value per
-    point.
+    Inlined into `native.step`, its one caller, at one call site for a single step and
+    for a recorded run alike: a second copy would be optimized by LLVM once more with
+    everything it calls.
 
     ``early``: None (numba then compiles no early return: the engine's own steps and the
     FMI 2 FMU), or (NaN, NaN), or for an FMU's early return (the step's start, t_end): the
@@ -572,41 +571,36 @@ def outputs_now(md, wk, hs):
 
 
 @jit_hot
-def run_grid(md, wk, hs, grid, inputs, rec):
-    """`advance` to every point of ``grid`` (``inputs``: torque, speed and load-shaft end
-    rate of interval i, held from grid[i]) and record the outputs and step figures there,
-    without a return to Python per point.
-
-    Returns the number of rows filled; fewer than ``len(grid)`` means the step into the next
-    row failed (``wk.summary`` holds why).
-    """
-    st, y, o, summ = hs.clock, hs.y, wk.outputs, wk.summary
-    torque, speed, yad = inputs
-    n = grid.shape[0]
+def record_first(md, wk, hs, rec):
+    """Column 0 of a recorded run's ``rec`` (`native.step`'s recorded run, for
+    `FastEngine.run`): the outputs at its start; the force extremes and mean are the force
+    there, the rates zero."""
+    o = wk.outputs
     outputs_now(md, wk, hs)
     for m in range(N_O):
         rec[m, 0] = o[m]
     rec[N_O + 2, 0] = o[1]
     rec[N_O + 5, 0] = o[1]
     rec[N_O + 6, 0] = o[1]
-    for i in range(1, n):
-        t0, stick0, sep0, back0 = st[T_T], st[T_STICK], st[T_SEP], st[T_BACK]
-        y[Y_AD] = yad[i - 1]
-        advance(md, wk, hs, grid[i], torque[i - 1], speed[i - 1], None)
-        if summ[O_STATUS] != STATUS_OK:
-            return i
-        outputs_now(md, wk, hs)
-        h = grid[i] - t0
-        for m in range(N_O):
-            rec[m, i] = o[m]
-        rec[N_O, i] = (st[T_STICK] - stick0) / h
-        rec[N_O + 1, i] = (st[T_SEP] - sep0) / h
-        rec[N_O + 2, i] = max(summ[O_FMAX], o[1])
-        rec[N_O + 3, i] = summ[O_NEV]
-        rec[N_O + 4, i] = (st[T_BACK] - back0) / h
-        rec[N_O + 5, i] = summ[O_FINT] / h
-        rec[N_O + 6, i] = min(summ[O_FMIN], o[1])
-    return n
+
+
+@jit_hot
+def record_row(md, wk, hs, rec, i, start):
+    """Column ``i`` of a recorded run's ``rec`` after the advance to its time: the outputs
+    there and the figures of the interval (``start``: time, stick, separation and
+    back-flank times at the interval's start)."""
+    st, o, summ = hs.clock, wk.outputs, wk.summary
+    outputs_now(md, wk, hs)
+    h = st[T_T] - start[0]
+    for m in range(N_O):
+        rec[m, i] = o[m]
+    rec[N_O, i] = (st[T_STICK] - start[1]) / h
+    rec[N_O + 1, i] = (st[T_SEP] - start[2]) / h
+    rec[N_O + 2, i] = max(summ[O_FMAX], o[1])
+    rec[N_O + 3, i] = summ[O_NEV]
+    rec[N_O + 4, i] = (st[T_BACK] - start[3]) / h
+    rec[N_O + 5, i] = summ[O_FINT] / h
+    rec[N_O + 6, i] = min(summ[O_FMIN], o[1])
 
 
 @jit
@@ -618,11 +612,6 @@ def reset_settle(md, wk, hs):
 
 
 # -- entry points from Python: plain tuples in, named records inside ------------------------
-@jit_entry
-def run_grid_entry(md, wk, hs, grid, inputs, rec):
-    return run_grid(ModelData(*md), Work(*wk), HybridState(*hs), grid, inputs, rec)
-
-
 @jit_entry
 def outputs_entry(md, wk, hs):
     outputs_now(ModelData(*md), Work(*wk), HybridState(*hs))

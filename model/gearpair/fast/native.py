@@ -70,7 +70,7 @@ from .layout import (
     ModelData,
     Work,
 )
-from .loop import advance, outputs_now, reset_settle
+from .loop import advance, outputs_now, record_first, record_row, reset_settle
 from .start import reset_state
 from .views import array_at as _array_at
 
@@ -80,9 +80,13 @@ N_FIG = len(STEP_RECORD) - 10  # figures after the N_O outputs
 _KINDS = {"md": "f1 i1 f1 f1 f1 f1",
           "wk": "i1 i1 f1 i1 f2 f2 f1 f1 f1 f1 f2 f1 f2 f3 f2 f2 f1 f1",
           "hs": "f1 f1 i1 f1 i1 i1",
-          "own": "f1 f1 f1"}  # the step block, the state buffer, its rollback copy
+          "own": "f1 f1 f1",  # the step block, the state buffer, its rollback copy
+          # a recorded run (`FastEngine.run`, `set_grid`): the grid's times, the torque,
+          # speed and load-shaft end rate of each interval and the records; empty for a step
+          "grid": "f1 f1 f1 f1 f2"}
 KINDS = tuple(k for part in _KINDS.values() for k in part.split())
 N_TABLE = 4 * len(KINDS)
+K_GRID = len(KINDS) - len(_KINDS["grid"].split())  # the first array of a recorded run
 
 
 def handoff_table(md: ModelData, wk: Work, hs: HybridState, block: np.ndarray,
@@ -94,8 +98,8 @@ def handoff_table(md: ModelData, wk: Work, hs: HybridState, block: np.ndarray,
     array alive while the table is in use.
     """
     arrays = (*md, *wk, *hs, block, state, saved)
-    table = np.zeros(N_TABLE, dtype=np.int64)
-    for k, (a, kind) in enumerate(zip(arrays, KINDS, strict=True)):
+    table = np.zeros(N_TABLE, dtype=np.int64)  # no recorded run: its arrays empty
+    for k, (a, kind) in enumerate(zip(arrays, KINDS[:K_GRID], strict=True)):
         dtype = np.float64 if kind[0] == "f" else np.int64
         if a.dtype != dtype or a.ndim != int(kind[1]) or not a.flags.c_contiguous or \
                 not a.flags.writeable:
@@ -103,6 +107,21 @@ def handoff_table(md: ModelData, wk: Work, hs: HybridState, block: np.ndarray,
         table[4 * k] = a.ctypes.data
         table[4 * k + 1:4 * k + 1 + a.ndim] = a.shape
     return table
+
+
+def set_grid(table: np.ndarray, arrays=None) -> None:
+    """Put a recorded run's arrays (grid, torque, speed, load-shaft end rate: float64[n]
+    and float64[n - 1], C-contiguous; the records: float64[N_REC, n]) into a hand-off
+    table, or take them out (None: the table steps once again). The caller keeps them
+    alive while they are in the table."""
+    table[4 * K_GRID:] = 0
+    if arrays is None:
+        return
+    for k, a in enumerate(arrays, K_GRID):
+        if a.dtype != np.float64 or a.ndim != int(KINDS[k][1]) or not a.flags.c_contiguous:
+            raise ValueError(f"hand-off array {k} is {a.dtype}[{a.ndim}d], not {KINDS[k]}")
+        table[4 * k] = a.ctypes.data
+        table[4 * k + 1:4 * k + 1 + a.ndim] = a.shape
 
 
 @jit_hot
@@ -124,7 +143,7 @@ def records(tab):
               _array_at(tab[76], (tab[77], tab[78], tab[79]), 0.0),  # 19: lti_mats
               f2(20), f2(21), f1(22), f1(23))
     hs = HybridState(f1(24), f1(25), i1(26), f1(27), i1(28), i1(29))
-    return md, wk, hs, (f1(30), f1(31), f1(32))
+    return md, wk, hs, (f1(30), f1(31), f1(32)), (f1(33), f1(34), f1(35), f1(36), f2(37))
 
 
 @jit_hot
@@ -169,24 +188,48 @@ def first_not_finite(o, fig):
 def step(tab, early_ok):
     """One step of the engine of the hand-off table ``tab`` (module docstring); returns a
     `STEP_*` code. ``early_ok``: None compiles a step that never returns early (numba
-    prunes the early return for its type), True one that does where ``X_FMU`` is 2."""
-    md, wk, hs, (x, state, saved) = records(tab)
-    st, mp = hs.clock, md.par
+    prunes the early return for its type), True one that does where ``X_FMU`` is 2.
+
+    With a recorded run in the table (``grid`` not empty: `FastEngine.run`), it advances to
+    every point of the grid instead, with the inputs of each interval held, records the
+    outputs and the interval's figures in ``rec`` (`loop.record_row`) and returns the
+    number of columns filled: fewer than the grid's points when the step into the next one
+    failed (``wk.summary`` says why). The same `advance` call serves both, so the engine is
+    compiled once."""
+    md, wk, hs, (x, state, saved), (grid, torque, speed, yad, rec) = records(tab)
+    st, mp, summ = hs.clock, md.par, wk.summary
+    rows = grid.shape[0]
     fmu = x[X_FMU] != 0.0
     if fmu:
         if refused(x, st):
             return STEP_REFUSED
         for m in range(state.shape[0]):
             saved[m] = state[m]
-    t_end, speed = x[X_TEND], x[X_SPEED]
-    start = (st[T_T], st[T_STICK], st[T_SEP], st[T_BACK])
-    hs.y[Y_AD] = 0.0 if x[X_LOADON] == 0.0 else \
-        -mp[P_RB2] * (x[X_LOAD] - speed * mp[P_RATIO])
-    if early_ok is None:
-        advance(md, wk, hs, t_end, x[X_TORQUE], speed, None)
-    else:
-        early = (start[0], t_end) if x[X_FMU] == 2.0 else (np.nan, np.nan)
-        advance(md, wk, hs, t_end, x[X_TORQUE], speed, early)
+    if rows > 0:
+        record_first(md, wk, hs, rec)
+    i = 1
+    while True:
+        if rows > 0:
+            if i >= rows:
+                return rows
+            t_end, tq, w = grid[i], torque[i - 1], speed[i - 1]
+            hs.y[Y_AD] = yad[i - 1]
+        else:
+            t_end, tq, w = x[X_TEND], x[X_TORQUE], x[X_SPEED]
+            hs.y[Y_AD] = 0.0 if x[X_LOADON] == 0.0 else \
+                -mp[P_RB2] * (x[X_LOAD] - w * mp[P_RATIO])
+        start = (st[T_T], st[T_STICK], st[T_SEP], st[T_BACK])
+        if early_ok is None:
+            advance(md, wk, hs, t_end, tq, w, None)
+        else:
+            early = (start[0], t_end) if x[X_FMU] == 2.0 else (np.nan, np.nan)
+            advance(md, wk, hs, t_end, tq, w, early)
+        if rows == 0:
+            break
+        if summ[O_STATUS] != STATUS_OK:
+            return i
+        record_row(md, wk, hs, rec, i, start)
+        i += 1
     code = STEP_FAILED
     if wk.summary[O_STATUS] == STATUS_OK:
         outputs_now(md, wk, hs)
@@ -218,7 +261,7 @@ def initialize(tab):
     with the figures of an empty step (`gearpair.engine.StepSummary.at_instant`), as an FMU
     shows them before its first step. Returns STEP_DONE, STEP_REFUSED (an input out of
     range: nothing changed), STEP_FAILED (no static equilibrium) or STEP_NONFINITE."""
-    md, wk, hs, (x, _, _) = records(tab)
+    md, wk, hs, (x, _, _), _ = records(tab)
     if not (abs(x[X_TORQUE]) <= 1e6 and abs(x[X_SPEED]) <= 2e4 and math.isfinite(x[X_TCHK])):
         return STEP_REFUSED
     keys = wk.lti_keys  # no propagator cached (`engine.work_buffers`)

@@ -161,11 +161,12 @@ def test_no_module_reaches_above_the_package():
 _INSTALLED = r"""
 import pathlib, sys
 import gearpair
-from gearpair.bench import plain_scipy, settings
+from gearpair.bench import nativestep, plain_scipy, settings
 
 lib = pathlib.Path(sys.argv[1]).resolve()
 assert pathlib.Path(gearpair.__file__).resolve().is_relative_to(lib), gearpair.__file__
 for f in (settings.NOOP_SCRIPT, settings.HOST_SOURCE, settings.FMI3_HOST_SOURCE,
+          nativestep.LOOP_SOURCE,
           settings.HERE.parent / "stepblock.py",
           pathlib.Path(plain_scipy.__file__)):
     assert f.resolve().is_relative_to(lib) and f.is_file(), f
@@ -176,8 +177,8 @@ print("ok")
 def test_the_installed_package_holds_every_file_the_bench_reads(tmp_path):
     """What a wheel installs (setuptools' ``build_py`` under the project's pyproject.toml: the
     packages with their package data), imported with no repository around it, finds the
-    bench's own files inside itself: the no-op slave, the C timing hosts, the step block's
-    layout and the plain scipy model."""
+    bench's own files inside itself: the no-op slave, the C timing hosts, the native
+    step's loop, the step block's layout and the plain scipy model."""
     root = PACKAGE.parents[1]
     src, lib = tmp_path / "src", tmp_path / "lib"
     (src / "model").mkdir(parents=True)
@@ -188,7 +189,7 @@ def test_the_installed_package_holds_every_file_the_bench_reads(tmp_path):
     subprocess.run([sys.executable, "-c", "from setuptools import setup; setup()", "-q",
                     "build_py", "-d", str(lib)], cwd=src, check=True, capture_output=True,
                    timeout=120)
-    for host in ("fmi2_bench_host.c", "fmi3_bench_host.c"):
+    for host in ("fmi2_bench_host.c", "fmi3_bench_host.c", "native_step_loop.c"):
         assert (lib / "gearpair" / "bench" / host).is_file(), host
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     out = subprocess.run([sys.executable, "-c", _INSTALLED, str(lib)], cwd=tmp_path,

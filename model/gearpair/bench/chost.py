@@ -75,7 +75,7 @@ def extract(fmu: str | Path, dest: Path) -> dict:
 
 
 def _host_args(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
-               threads: str, spin: int) -> list[str]:
+               threads: str, spin: int, native: tuple[int, int] | None = None) -> list[str]:
     vr = unit["vars"]
     args = [host["exe"], unit["dir"], unit["model"], unit["guid"], repr(step), str(n),
             str(blocks), ",".join(str(vr[k][0]) for k in INPUTS),
@@ -88,22 +88,25 @@ def _host_args(host: dict, unit: dict, start: dict, step: float, n: int, blocks:
             continue
         value = int(bool(value)) if typ == "Boolean" else value
         args += [flag[typ], f"{ref}={value!r}"]
-    return args + ["-t", threads] + (["-c", str(spin)] if spin else [])
+    return args + ["-t", threads] + (["-c", str(spin)] if spin else []) + \
+        (["-x", f"{native[0]},{native[1]}"] if native else [])
 
 
 def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: int,
              env: dict | None = None, timeout: float = 600.0, threads: str = "main",
-             spin: int = 0) -> dict:
+             spin: int = 0, native: tuple[int, int] | None = None) -> dict:
     """One host process: its RESULT line as a dict, with ``exit_status``; ``threads`` the
     host's thread mode (main, worker, pair, serial: `THREAD_MODES`; instances: set-up only,
-    `host_instances`; or interleaved, with ``spin`` multiply-adds of the machine ceiling's
-    arithmetic per round: `host_threads`).
+    `host_instances`; interleaved, with ``spin`` multiply-adds of the machine ceiling's
+    arithmetic per round: `host_threads`; or native, with ``native`` the host's ends of the
+    pipes to the native step's process: `host_native`).
 
     Raises RuntimeError when the host printed no result (it failed before its loop)."""
-    args = _host_args(host, unit, start, step, n, blocks, threads, spin)
+    args = _host_args(host, unit, start, step, n, blocks, threads, spin, native)
     child = dict(os.environ if env is None else env, **host["env"])
     child.pop("PYTHONHOME", None)
-    proc = subprocess.run(args, capture_output=True, text=True, env=child, timeout=timeout)
+    proc = subprocess.run(args, capture_output=True, text=True, env=child, timeout=timeout,
+                          pass_fds=native or ())
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
     if not lines:
         raise RuntimeError(f"C host printed no result (exit {proc.returncode}): "
@@ -193,6 +196,8 @@ def host_measurements(s: Settings, fmu: Path, noop: Path, workdir: str | Path,
     out["threads"] = host_threads(host, units["gearpair"], starts["gearpair"],
                                   s.host_steps[0], s.host_n, s.host_rounds, s.round_spin,
                                   progress)
+    out["native"] = host_native(host, units["gearpair"], starts["gearpair"], rtol,
+                                s.host_steps[0], s.host_n, s.host_rounds, workdir, progress)
     progress("C host: whole processes and further instances")
     out["process"] = host_process(host, units["gearpair"], starts["gearpair"])
     out["instances"] = host_instances(host, units["gearpair"], starts["gearpair"])
@@ -261,6 +266,77 @@ def host_threads(host: dict, unit: dict, start: dict, step: float, n: int, round
         out["identical"] = len(set(digests)) == 1
     except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
+    return out
+
+
+def host_native(host: dict, unit: dict, start: dict, rtol: float, step: float, n: int,
+                rounds: int, workdir: Path, progress: Progress = _quiet) -> dict:
+    """GearPair.fmu's step against the native step it replaced, in the same rounds.
+
+    The native step (`gearpair.bench.nativestep`): the engine's compiled step called from C
+    at its C address, as the C layer of the pythonfmu-based FMU called it, with ``X_FMU`` = 1
+    (the FMU's checks and rollback), in a child process whose engine is compiled for the CPU
+    target of the FMU's object, from the same start (the point, ``rtol``, at rest at t = 0,
+    a first ``step`` outside the timed blocks). The host (``-t native``) runs ``rounds``
+    rounds: its instance's block of ``n`` steps and the child's block of the same model time,
+    the first of the two alternating. Both processes are held to one CPU (they never run at
+    once: each waits for the other), so that the ratio compares call paths, not the vCPUs of
+    a virtual machine.
+
+    Per round (us per step): ``fmu_us``, ``native_us`` (wall) and ``fmu_cpu_us``,
+    ``native_cpu_us`` (the stepping thread's CPU); ``ratios`` (``ratios_cpu``): FMU over
+    native; ``fmu_over_native`` (``_cpu``): their median. ``identical``: the two gave the
+    same output bits at every step (the digests); ``cpu_name``: the CPU the child's engine
+    was compiled for."""
+    from ..params import OperatingPoint
+    from . import nativestep
+
+    out: dict = {"step": step, "n": n, "rounds": rounds, "error": None}
+    op = OperatingPoint()
+    job = {"regime": REGIME, "rtol": rtol, "torque": float(start.get("torque", op.torque)),
+           "speed": float(start.get("speed", op.speed)), "step": step, "n": n,
+           "outputs": list(OUTPUTS)}
+    go, back = os.pipe(), os.pipe()  # (read, write) each: the host writes go, reads back
+    child = None
+    keep = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    try:
+        progress(f"C host: GearPair against the native step at {step:g} s steps, {rounds} "
+                 "rounds (the first run after an engine change compiles it, about 30 s)")
+        lib = nativestep.build_loop(workdir)
+        if keep:  # both children inherit one CPU (this thread's affinity at their fork)
+            os.sched_setaffinity(0, {max(keep)})
+        child, ready = nativestep.start(lib, job, (go[0], back[1]))
+        out.update(cpu_name=ready["cpu_name"], cpu_features=ready["cpu_features"])
+        os.close(go[0])
+        os.close(back[1])
+        go, back = (-1, go[1]), (back[0], -1)
+        got = run_host(host, unit, start, step, n, rounds, threads="native",
+                       native=(go[1], back[0]))
+        nat = got["native"]
+        per = {"fmu_us": got["block_wall_s"], "fmu_cpu_us": got["block_cpu_s"],
+               "native_us": nat["wall_s"], "native_cpu_us": nat["cpu_s"]}
+        out.update({k: [1e6 * v / n for v in times] for k, times in per.items()})
+        out["ratios"] = _ratios(got["block_wall_s"], nat["wall_s"])
+        out["ratios_cpu"] = _ratios(got["block_cpu_s"], nat["cpu_s"])
+        out["fmu_over_native"] = median(out["ratios"])
+        out["fmu_over_native_cpu"] = median(out["ratios_cpu"])
+        out["digests"] = [got["instances"][0]["digest"], nat["digest"]]
+        out["identical"] = len(set(out["digests"])) == 1
+        out["exit_status"] = got["exit_status"]
+    except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+        out["error"] = f"{type(exc).__name__}: {exc}"
+    finally:
+        if keep:
+            os.sched_setaffinity(0, keep)
+        for fd in (*go, *back):
+            if fd >= 0:
+                os.close(fd)
+        if child is not None:
+            try:
+                child.communicate(timeout=60)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.communicate()
     return out
 
 

@@ -42,14 +42,23 @@
  * "setup_s" (per instance, fmi2Instantiate to the end of fmi2ExitInitializationMode) and
  * "rss_kb" (the process's resident memory after each, from /proc/self/statm).
  *
+ * "native" (with -x GO,BACK) runs BLOCKS rounds of one instance's block of N steps and of
+ * the same block of the engine's native step in another process (gearpair/bench/
+ * nativestep.py: the engine's compiled step called at its C address, as the FMU it replaced
+ * called it), which steps block b when this host writes b (an int64) to the pipe GO and
+ * answers on BACK with its wall and CPU time (two doubles) and its digest so far (uint64);
+ * which of the two goes first alternates from round to round. The RESULT line then also has
+ * "native": its wall_s and cpu_s per round and its digest after the last. This host writes
+ * -1 to GO at the end.
+ *
  * "peak_rss_kb" is the process's peak resident memory when it prints (VmHWM).
  *
  * Build (the FMI 2 headers ship with fmpy, in fmpy/c-code):
  *     gcc -O2 -std=c99 -I"$FMPY/c-code" -o fmi2_bench_host fmi2_bench_host.c -ldl -lpthread
  * Usage:
  *     fmi2_bench_host DIR MODEL_ID GUID H N BLOCKS IN_VRS IN_VALUES OUT_VRS
- *                     [-r|-i|-b VR=V]... [-t main|worker|pair|serial|interleaved]
- *                     [-c SPIN]
+ *                     [-r|-i|-b VR=V]... [-t main|worker|pair|serial|interleaved|native]
+ *                     [-c SPIN] [-x GO,BACK]
  *   DIR the extracted FMU; IN_VRS, OUT_VRS comma-separated Real value references; IN_VALUES
  *   the inputs' values (comma separated, held constant); -r / -i / -b set a Real / Integer /
  *   Boolean (0 or 1) start value before initialization (repeatable).
@@ -360,6 +369,40 @@ static int interleave(Run *run, long blocks, long spin_n, Rounds *out) {
     return failed;
 }
 
+/* What the native step's process answered, per round (mode "native"). */
+typedef struct {
+    double wall[MAXB], cpu[MAXB];
+    uint64_t digest;
+} Native;
+
+/* Block b of the native step in the process at the other end of the pipes `go` and
+ * `back` (1: it did not answer). */
+static int native_block(long b, int go, int back, Native *out) {
+    double times[2];
+    if (write(go, &b, sizeof b) != (ssize_t)sizeof b ||
+        read(back, times, sizeof times) != (ssize_t)sizeof times ||
+        read(back, &out->digest, sizeof out->digest) != (ssize_t)sizeof out->digest)
+        return 1;
+    out->wall[b] = times[0];
+    out->cpu[b] = times[1];
+    return 0;
+}
+
+/* The native step's rounds: block b of this host's instance and block b of the native
+ * step, the first of the two alternating (on a machine whose speed drifts, neither always
+ * runs first). Returns 0, or 1 when the other process did not answer. */
+static int native_rounds(Run *run, long blocks, int go, int back, Native *out) {
+    int failed = 0;
+    for (long b = 0; b < blocks && !failed && run->status <= fmi2Warning; b++) {
+        if (b % 2) failed |= native_block(b, go, back, out);
+        block(run, b);
+        if (!(b % 2)) failed |= native_block(b, go, back, out);
+    }
+    long quit = -1;
+    if (write(go, &quit, sizeof quit) != (ssize_t)sizeof quit) failed = 1;
+    return failed;
+}
+
 static void print_rounds(const Rounds *r, long blocks) {
     printf(", \"rounds\": {");
     for (int k = 0; k < N_SERIES; k++) {
@@ -391,9 +434,14 @@ int main(int argc, char **argv) {
     if (blocks < 1 || blocks > MAXB || n < 1 || !(h > 0.0)) return 2;
     const char *mode = "main";
     long spin_n = 0;
+    int go = -1, back = -1;
     for (int a = 10; a + 1 < argc; a += 2) {
         if (!strcmp(argv[a], "-t")) {
             mode = argv[a + 1];
+            continue;
+        }
+        if (!strcmp(argv[a], "-x")) {
+            if (sscanf(argv[a + 1], "%d,%d", &go, &back) != 2) return 2;
             continue;
         }
         if (!strcmp(argv[a], "-c")) {
@@ -442,6 +490,8 @@ int main(int argc, char **argv) {
 
     fmi2CallbackFunctions callbacks = {log_message, calloc, free, NULL, NULL};
     int mixed = !strcmp(mode, "interleaved"), many = !strcmp(mode, "instances");
+    int native = !strcmp(mode, "native");
+    if (native && (go < 0 || back < 0)) return 2;
     int n_inst = mixed ? N_MIXED : many ? (int)blocks
                  : (!strcmp(mode, "pair") || !strcmp(mode, "serial")) ? 2 : 1;
     if (mixed && n % 10) return 2; /* the floor instance steps n / 10 times 10 h */
@@ -497,11 +547,15 @@ int main(int argc, char **argv) {
 
     double w0 = now(CLOCK_MONOTONIC);
     Rounds rounds;
+    static Native nat;
     if (many) {
         /* no loop: the instances' set-up was what this mode measures */
     } else if (mixed) {
         if (interleave(run, blocks, spin_n, &rounds))
             return fail("a thread or the forked copy (interleaved mode)", -1);
+    } else if (native) {
+        if (native_rounds(&run[0], blocks, go, back, &nat))
+            return fail("the native step's process (native mode)", -1);
     } else if (!strcmp(mode, "main") || !strcmp(mode, "serial")) {
         for (int i = 0; i < n_inst; i++) steps(&run[i]);
     } else if (!strcmp(mode, "worker") || !strcmp(mode, "pair")) {
@@ -525,6 +579,13 @@ int main(int argc, char **argv) {
     printf(", ");
     print_times("block_cpu_s", run[0].cpu, blocks);
     if (mixed) print_rounds(&rounds, blocks);
+    if (native) {
+        printf(", \"native\": {");
+        print_times("wall_s", nat.wall, blocks);
+        printf(", ");
+        print_times("cpu_s", nat.cpu, blocks);
+        printf(", \"digest\": \"%016llx\"}", (unsigned long long)nat.digest);
+    }
     if (many) {
         printf(", ");
         print_times("setup_s", setup_s, n_inst);

@@ -327,6 +327,7 @@ def _c_host(result: dict) -> list[str]:
                    f"of it (spin {th['spin_ceiling']:.2f}); outputs of every instance at the "
                    "step " + ("the same" if th["identical"] else
                               "DIFFER: " + " ".join(th["digests"])))
+    out += _native_rows(ch.get("native"))
     st = ch.get("startup")
     if st and st.get("error"):
         out.append(f"C host first start failed: {st['error']}")
@@ -339,6 +340,30 @@ def _c_host(result: dict) -> list[str]:
               _fmt(v["total_s"]), exit_note(v["exit_status"])]
              for k, v in (("empty (shipped code)", st["empty"]), ("warm", st["warm"]))]))
     out.append("")
+    return out
+
+
+def _native_rows(nat: dict | None) -> list[str]:
+    """GearPair.fmu's step against the native step it replaced, round by round."""
+    if not nat:
+        return []
+    if nat["error"]:
+        return [f"GearPair.fmu against the native step failed: {nat['error']}"]
+    out = [f"GearPair.fmu in the C host against the native step it replaced (the engine's "
+           f"compiled step, compiled for {nat['cpu_name']} as the FMU's, called from C at its "
+           f"address with the FMU's checks and rollback, in a process of its own; "
+           f"{nat['step']:g} s steps, {nat['rounds']} rounds of {nat['n']} steps of each, the "
+           "same model time, the first of the two alternating, both on one CPU; us per step, "
+           "wall and the stepping thread's CPU):"]
+    rows = [[what, *[_fmt(f(nat[k]), fmt) for k in keys for f in (min, median)]]
+            for what, keys, fmt in (("GearPair.fmu", ("fmu_us", "fmu_cpu_us"), ".2f"),
+                                    ("native step", ("native_us", "native_cpu_us"), ".2f"),
+                                    ("FMU / native", ("ratios", "ratios_cpu"), ".3f"))]
+    out.append(table(["step", "best", "median", "CPU best", "CPU median"], rows))
+    out.append(f"median of the per-round ratios GearPair.fmu / native: "
+               f"{nat['fmu_over_native']:.3f} (CPU {nat['fmu_over_native_cpu']:.3f}); "
+               "outputs at every step " + ("the same" if nat["identical"] else
+                                           "DIFFER: " + " ".join(nat["digests"])))
     return out
 
 

@@ -26,7 +26,6 @@ objdump of mingw-w64. ``scripts/setup.sh`` installs them from Debian's packages
 
 from __future__ import annotations
 
-import fcntl
 import importlib.util
 import os
 import re
@@ -34,7 +33,6 @@ import shutil
 import struct
 import subprocess
 import sys
-import tempfile
 import zipfile
 from pathlib import Path
 
@@ -44,13 +42,15 @@ fmpy = pytest.importorskip("fmpy")
 
 from test_hosts import compile_c_host  # noqa: E402
 
+from gearpair.bench import wine as bench_wine  # noqa: E402
+
 pytestmark = pytest.mark.fmu
 
 ROOT = Path(__file__).resolve().parents[1]
 HOSTS = ROOT / "examples" / "hosts"
 SCENES_C = ROOT / "tests" / "hosts" / "fmi2_scenes.c"
 FUZZ_C = ROOT / "tests" / "fuzz" / "fmi2_fuzz.c"
-MINGW = "x86_64-w64-mingw32-gcc"
+MINGW = bench_wine.MINGW
 INSTALL = "apt-get install gcc-mingw-w64-x86-64 wine64 (scripts/setup.sh does)"
 
 N, H = 200, 1e-4
@@ -110,61 +110,23 @@ def compile_win64_host(source: Path, exe: Path) -> Path:
     return exe
 
 
-def _wineprefix() -> Path:
-    own = os.environ.get("GEARPAIR_WINEPREFIX")
-    if own:
-        return Path(own)
-    cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(cache) / "gearpair" / "wine64"
-
-
 @pytest.fixture(scope="module")
 def wine():
     """A function running a Windows program under Wine: ``run(exe, *args, input=None)``
-    returns the CompletedProcess with the stdout's CR LF as LF."""
+    returns the CompletedProcess with the stdout's CR LF as LF (`gearpair.bench.wine`: the
+    prefix the bench shares, booted once)."""
     exe = shutil.which("wine") or shutil.which("wine64")
     if exe is None:
         pytest.skip(f"no Wine; {INSTALL}")
-    prefix = _wineprefix()
-    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    env.update(WINEPREFIX=str(prefix), WINEDEBUG="-all", WINEDLLOVERRIDES="mscoree,mshtml=")
-    prefix.parent.mkdir(parents=True, exist_ok=True)
-    with open(prefix.parent / f".{prefix.name}.lock", "a") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)  # one boot of a new prefix at a time
-        if not (prefix / "system.reg").is_file():
-            with tempfile.TemporaryFile() as e:
-                subprocess.run([exe, "wineboot", "--init"], env=env, stdin=subprocess.DEVNULL,
-                               stdout=subprocess.DEVNULL, stderr=e, timeout=600)
-                # the registry files of a new prefix are written when its wineserver exits
-                # (seconds after wineboot returns): wait for that
-                server = shutil.which("wineserver") or str(Path(exe).with_name("wineserver"))
-                subprocess.run([server, "-w"], env=env, stdin=subprocess.DEVNULL,
-                               stdout=subprocess.DEVNULL, stderr=e, timeout=600)
-                e.seek(0)
-                why = e.read().decode(errors="replace")[-2000:]
-            assert (prefix / "system.reg").is_file(), f"wineboot failed: {why}"
+    bench_wine.boot(exe)
 
     def run(program: Path, *args: str, input: str | None = None, timeout: float = 300):
-        # files, not pipes: a wineserver that this program starts inherits them and stays
-        # 3 s after the program ends, which a pipe's reader would wait for
-        with tempfile.TemporaryFile() as i, tempfile.TemporaryFile() as o, \
-                tempfile.TemporaryFile() as e:
-            i.write((input or "").encode())
-            i.seek(0)
-            proc = subprocess.run([exe, str(program), *args], env=env, stdin=i, stdout=o,
-                                  stderr=e, timeout=timeout)
-            o.seek(0)
-            e.seek(0)
-            proc.stdout = o.read().decode().replace("\r\n", "\n")
-            proc.stderr = e.read().decode()
-        return proc
+        return bench_wine.run(exe, program, list(args), timeout=timeout, input=input)
 
     return run
 
 
-def winpath(p: Path) -> str:
-    """A Linux path as Wine's programs name it (drive Z: is the root)."""
-    return "Z:" + str(Path(p).resolve())
+winpath = bench_wine.winpath
 
 
 def _vr_types(md) -> tuple[dict, dict]:

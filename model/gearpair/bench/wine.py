@@ -77,13 +77,16 @@ def boot(wine: str, timeout: float = 600.0) -> Path:
     return where
 
 
-def run(wine: str, program: Path, args: list[str], timeout: float = 600.0
-        ) -> subprocess.CompletedProcess:
-    """``program`` with ``args`` under Wine in the bench's prefix (`boot` first); stdout
-    with CR LF as LF, stderr as text."""
+def run(wine: str, program: Path, args: list[str], timeout: float = 600.0,
+        input: str | None = None) -> subprocess.CompletedProcess:
+    """``program`` with ``args`` (and ``input`` on its stdin) under Wine in the bench's
+    prefix (`boot` first); stdout with CR LF as LF, stderr as text."""
     env = environment(prefix())
-    with tempfile.TemporaryFile() as o, tempfile.TemporaryFile() as e:
-        proc = subprocess.run([wine, str(program), *args], env=env, stdin=subprocess.DEVNULL,
+    with tempfile.TemporaryFile() as i, tempfile.TemporaryFile() as o, \
+            tempfile.TemporaryFile() as e:
+        i.write((input or "").encode())
+        i.seek(0)
+        proc = subprocess.run([wine, str(program), *args], env=env, stdin=i,
                               stdout=o, stderr=e, timeout=timeout)
         o.seek(0)
         e.seek(0)

@@ -107,14 +107,26 @@ def run_host(host: dict, unit: dict, start: dict, step: float, n: int, blocks: i
     child.pop("PYTHONHOME", None)
     proc = subprocess.run(args, capture_output=True, text=True, env=child, timeout=timeout,
                           pass_fds=native or ())
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+    return parse(proc.stdout, proc.stderr, proc.returncode)
+
+
+def parse(stdout: str, stderr: str, status: int) -> dict:
+    """A timing host's RESULT line (`fmi2_bench_host.c`, `fmi3_bench_host.c`) as a dict,
+    with ``exit_status``.
+
+    Raises
+    ------
+    RuntimeError
+        No RESULT line, or one that reports a failure.
+    """
+    lines = [ln for ln in stdout.splitlines() if ln.startswith("RESULT ")]
     if not lines:
-        raise RuntimeError(f"C host printed no result (exit {proc.returncode}): "
-                           f"{(proc.stderr or proc.stdout)[-1000:]}")
+        raise RuntimeError(f"the C host printed no result (exit {status}): "
+                           f"{(stderr or stdout)[-1000:]}")
     out = json.loads(lines[-1][len("RESULT "):])
     if not out.get("ok"):
-        raise RuntimeError(f"C host: {out.get('error')}: {proc.stderr[-1000:]}")
-    out["exit_status"] = proc.returncode
+        raise RuntimeError(f"the C host: {out.get('error')}: {stderr[-1000:]}")
+    out["exit_status"] = status
     return out
 
 

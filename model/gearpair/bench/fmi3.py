@@ -27,7 +27,6 @@ the same build; Wine, mingw-w64, a win64 binary).
 
 from __future__ import annotations
 
-import json
 import shutil
 import subprocess
 import zipfile
@@ -35,7 +34,7 @@ from pathlib import Path
 from statistics import median
 
 from . import wine as _wine
-from .chost import INPUTS, OUTPUTS, REGIME, extract
+from .chost import INPUTS, OUTPUTS, REGIME, extract, parse
 from .fmu import fmu_start
 from .settings import FMI3_HOST_SOURCE, Progress, Settings, _quiet
 
@@ -132,25 +131,6 @@ def host_args(variants: tuple[str, ...], step: float, n: int, rounds: int, start
         value = int(bool(value)) if flag == "-b" else value
         args += [flag, f"{ref}={value!r}"]
     return args
-
-
-def parse(stdout: str, stderr: str, status: int) -> dict:
-    """The host's RESULT line as a dict, with ``exit_status``.
-
-    Raises
-    ------
-    RuntimeError
-        No RESULT line, or one that reports a failure.
-    """
-    lines = [ln for ln in stdout.splitlines() if ln.startswith("RESULT ")]
-    if not lines:
-        raise RuntimeError(f"the host printed no result (exit {status}): "
-                           f"{(stderr or stdout)[-1000:]}")
-    out = json.loads(lines[-1][len("RESULT "):])
-    if not out.get("ok"):
-        raise RuntimeError(f"the host: {out.get('error')}: {stderr[-1000:]}")
-    out["exit_status"] = status
-    return out
 
 
 def _ratios(a: list[float], b: list[float]) -> list[float]:

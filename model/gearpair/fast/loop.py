@@ -316,24 +316,35 @@ def stops_early(wk, hs, nact, early, cs):
 
 
 @jit_hot
+def booked_piece(md, wk, hs, nact, tb, lti):
+    """One piece (`piece_exact` where ``lti``, else `piece`) with its events booked in the
+    summary. Returns the piece's code (1: it ended at a switch, 0: at ``tb``), or -1 when
+    the segment must end: the piece failed, or the events exceeded ``max_events`` (the
+    summary's status says which)."""
+    summ = wk.summary
+    if not lti:
+        r = piece(md, wk, hs, nact, tb)
+    else:
+        r = piece_exact(md, wk, hs, nact, tb)
+    if r < 0:
+        if r == -1:
+            summ[O_STATUS] = STATUS_STEP
+        return -1
+    summ[O_NEV] += r
+    if summ[O_NEV] > md.flag[I_MAXEV]:
+        summ[O_STATUS] = STATUS_EVENTS
+        summ[O_TFAIL] = hs.clock[T_T]
+        return -1
+    return r
+
+
+@jit_hot
 def segment(md, wk, hs, tb, lti):
     """One segment between known boundaries (ReferenceEngine.advance's loop body); ``lti``:
     by the exact propagator (`piece_exact`) rather than Runge-Kutta (`piece`)."""
     nact = segment_start(md, wk, hs, tb, True)
-    summ = wk.summary
     while hs.clock[T_T] < tb:
-        if not lti:
-            r = piece(md, wk, hs, nact, tb)
-        else:
-            r = piece_exact(md, wk, hs, nact, tb)
-        if r < 0:
-            if r == -1:
-                summ[O_STATUS] = STATUS_STEP
-            return
-        summ[O_NEV] += r
-        if summ[O_NEV] > md.flag[I_MAXEV]:
-            summ[O_STATUS] = STATUS_EVENTS
-            summ[O_TFAIL] = hs.clock[T_T]
+        if booked_piece(md, wk, hs, nact, tb, lti) < 0:
             return
     keep_pairs(wk, hs, nact)
 
@@ -349,25 +360,14 @@ def segment_early(md, wk, hs, tb, lti, early, cs):
     fresh = hs.mode[J_RESUME] == 0
     hs.mode[J_RESUME] = 0
     nact = segment_start(md, wk, hs, tb, fresh)
-    summ = wk.summary
     stop, cs = stops_early(wk, hs, nact, early, cs)
     if stop:
         keep_pairs(wk, hs, nact)
         hs.mode[J_RESUME] = 1
         return True, cs
     while hs.clock[T_T] < tb:
-        if not lti:
-            r = piece(md, wk, hs, nact, tb)
-        else:
-            r = piece_exact(md, wk, hs, nact, tb)
+        r = booked_piece(md, wk, hs, nact, tb, lti)
         if r < 0:
-            if r == -1:
-                summ[O_STATUS] = STATUS_STEP
-            return False, cs
-        summ[O_NEV] += r
-        if summ[O_NEV] > md.flag[I_MAXEV]:
-            summ[O_STATUS] = STATUS_EVENTS
-            summ[O_TFAIL] = hs.clock[T_T]
             return False, cs
         if r == 1:
             stop, cs = stops_early(wk, hs, nact, early, cs)

@@ -86,7 +86,8 @@ _KINDS = {"md": "f1 i1 f1 f1 f1 f1",
           "grid": "f1 f1 f1 f1 f2"}
 KINDS = tuple(k for part in _KINDS.values() for k in part.split())
 N_TABLE = 4 * len(KINDS)
-K_GRID = len(KINDS) - len(_KINDS["grid"].split())  # the first array of a recorded run
+N_KINDS = len(KINDS)
+K_GRID = N_KINDS - len(_KINDS["grid"].split())  # the first array of a recorded run
 
 
 def handoff_table(md: ModelData, wk: Work, hs: HybridState, block: np.ndarray,
@@ -98,15 +99,24 @@ def handoff_table(md: ModelData, wk: Work, hs: HybridState, block: np.ndarray,
     array alive while the table is in use.
     """
     arrays = (*md, *wk, *hs, block, state, saved)
+    if len(arrays) != K_GRID:
+        raise ValueError(f"a hand-off table takes {K_GRID} arrays, not {len(arrays)}")
     table = np.zeros(N_TABLE, dtype=np.int64)  # no recorded run: its arrays empty
-    for k, (a, kind) in enumerate(zip(arrays, KINDS[:K_GRID], strict=True)):
-        dtype = np.float64 if kind[0] == "f" else np.int64
-        if a.dtype != dtype or a.ndim != int(kind[1]) or not a.flags.c_contiguous or \
-                not a.flags.writeable:
-            raise ValueError(f"hand-off array {k} is {a.dtype}[{a.ndim}d], not {kind}")
-        table[4 * k] = a.ctypes.data
-        table[4 * k + 1:4 * k + 1 + a.ndim] = a.shape
+    for k, a in enumerate(arrays):
+        _put(table, k, a, writeable=True)
     return table
+
+
+def _put(table: np.ndarray, k: int, a: np.ndarray, writeable: bool) -> None:
+    """Array ``k`` of a hand-off table: its address and dimensions, once checked against
+    `KINDS` (the compiled step reads it as that kind, and writes where ``writeable``)."""
+    kind = KINDS[k]
+    dtype = np.float64 if kind[0] == "f" else np.int64
+    if a.dtype != dtype or a.ndim != int(kind[1]) or not a.flags.c_contiguous or \
+            (writeable and not a.flags.writeable):
+        raise ValueError(f"hand-off array {k} is {a.dtype}[{a.ndim}d], not {kind}")
+    table[4 * k] = a.ctypes.data
+    table[4 * k + 1:4 * k + 1 + a.ndim] = a.shape
 
 
 def set_grid(table: np.ndarray, arrays=None) -> None:
@@ -118,10 +128,7 @@ def set_grid(table: np.ndarray, arrays=None) -> None:
     if arrays is None:
         return
     for k, a in enumerate(arrays, K_GRID):
-        if a.dtype != np.float64 or a.ndim != int(KINDS[k][1]) or not a.flags.c_contiguous:
-            raise ValueError(f"hand-off array {k} is {a.dtype}[{a.ndim}d], not {KINDS[k]}")
-        table[4 * k] = a.ctypes.data
-        table[4 * k + 1:4 * k + 1 + a.ndim] = a.shape
+        _put(table, k, a, writeable=k == N_KINDS - 1)  # only the records are written
 
 
 @jit_hot
